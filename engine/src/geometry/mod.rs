@@ -1,0 +1,14 @@
+//! Geometric primitives: boxes, rays, the watertight ray/triangle test,
+//! triangle meshes and rigid transforms.
+
+mod aabb;
+mod mesh;
+mod ray;
+mod transform;
+pub mod triangle;
+
+pub use aabb::Aabb;
+pub use mesh::{TriangleMesh, MAX_COORDINATE};
+pub use ray::Ray;
+pub use transform::RigidTransform;
+pub use triangle::{TriangleHit, WatertightRay};

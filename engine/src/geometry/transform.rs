@@ -1,0 +1,111 @@
+use glam::{Affine3A, Quat, Vec3, Vec3A};
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result};
+
+/// A rigid motion: rotate, then translate. Rigid motions keep distances, so a
+/// ray moved into an object's frame keeps its parameter `t`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigidTransform {
+    #[serde(default = "identity_rotation")]
+    pub rotation: Quat,
+    #[serde(default)]
+    pub translation: Vec3,
+}
+
+fn identity_rotation() -> Quat {
+    Quat::IDENTITY
+}
+
+impl Default for RigidTransform {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+impl RigidTransform {
+    pub const IDENTITY: Self = Self {
+        rotation: Quat::IDENTITY,
+        translation: Vec3::ZERO,
+    };
+
+    /// A rigid transform; the rotation is normalised. Errors on non-finite
+    /// input or a zero quaternion.
+    pub fn new(rotation: Quat, translation: Vec3) -> Result<Self> {
+        if !rotation.is_finite() || !translation.is_finite() {
+            return Err(Error::InvalidTransform("non-finite component".into()));
+        }
+        let len = rotation.length();
+        if len < 1e-6 {
+            return Err(Error::InvalidTransform(
+                "rotation quaternion has zero length".into(),
+            ));
+        }
+        Ok(Self {
+            rotation: rotation / len,
+            translation,
+        })
+    }
+
+    /// Checks and normalises a transform that came from outside (e.g. JSON).
+    pub fn validated(self) -> Result<Self> {
+        Self::new(self.rotation, self.translation)
+    }
+
+    pub fn from_translation(t: Vec3) -> Self {
+        Self {
+            rotation: Quat::IDENTITY,
+            translation: t,
+        }
+    }
+
+    pub fn is_identity(&self) -> bool {
+        self.rotation == Quat::IDENTITY && self.translation == Vec3::ZERO
+    }
+
+    pub fn to_affine(&self) -> Affine3A {
+        Affine3A::from_rotation_translation(self.rotation, self.translation)
+    }
+
+    pub fn inverse(&self) -> Self {
+        let r = self.rotation.conjugate();
+        Self {
+            rotation: r,
+            translation: -(r * self.translation),
+        }
+    }
+
+    #[inline]
+    pub fn transform_point(&self, p: Vec3A) -> Vec3A {
+        self.rotation * p + Vec3A::from(self.translation)
+    }
+
+    #[inline]
+    pub fn transform_vector(&self, v: Vec3A) -> Vec3A {
+        self.rotation * v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inverse_undoes_the_motion() {
+        let t = RigidTransform::new(
+            Quat::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 0.7),
+            Vec3::new(4.0, -5.0, 6.0),
+        )
+        .unwrap();
+        let p = Vec3A::new(0.3, -2.0, 9.0);
+        let back = t.inverse().transform_point(t.transform_point(p));
+        assert!((back - p).length() < 1e-5);
+    }
+
+    #[test]
+    fn rejects_bad_rotations() {
+        assert!(RigidTransform::new(Quat::from_xyzw(0.0, 0.0, 0.0, 0.0), Vec3::ZERO).is_err());
+        assert!(RigidTransform::new(Quat::IDENTITY, Vec3::new(f32::NAN, 0.0, 0.0)).is_err());
+    }
+}

@@ -1,0 +1,259 @@
+//! The watertight ray/triangle test of Woop, Benthin and Wald, "Watertight
+//! Ray/Triangle Intersection" (JCGT 2013), with an exact tie-break on edges
+//! and vertices.
+//!
+//! The ray is sheared so that it becomes the origin of a 2D plane; every
+//! vertex is sheared the same way whichever triangle it belongs to, so the
+//! edge functions of a shared edge are exact negatives of each other and no
+//! ray slips between two triangles. Edge functions that round to zero in
+//! `f32` are recomputed in `f64`, where products of `f32` values are exact,
+//! so zero means the ray really passes through the edge.
+//!
+//! Woop et al. report such a ray as hitting both triangles. We instead
+//! decide an exact zero by simulation of simplicity: the ray is moved by the
+//! infinitesimal `(eps, eps^2)` in the sheared plane, the same move for
+//! every triangle. The moved ray meets no edge, so a ray through an edge or
+//! vertex of a closed mesh hits exactly one of the triangles there.
+
+use glam::Vec3A;
+
+use super::Ray;
+
+/// Where a ray meets a triangle: `t` along the ray, and the barycentric
+/// weights `u` of the second and `v` of the third corner.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// The per-ray constants of the test, computed once per ray.
+#[derive(Clone, Copy, Debug)]
+pub struct WatertightRay {
+    origin: Vec3A,
+    /// Axes permuted so that `kz` is the direction's dominant axis and the
+    /// winding of the sheared triangle keeps its sign.
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+/// A vertex in the ray's sheared frame.
+#[derive(Clone, Copy)]
+struct Sheared {
+    x: f32,
+    y: f32,
+    z: f32,
+}
+
+impl WatertightRay {
+    /// Precomputes the shear of `ray`. The ray must have a non-zero finite
+    /// direction (see [`Ray::is_valid`]).
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        let d = ray.dir;
+        let a = d.abs();
+        let kz = if a.x > a.y {
+            if a.x > a.z {
+                0
+            } else {
+                2
+            }
+        } else if a.y > a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        Self {
+            origin: ray.origin,
+            kx,
+            ky,
+            kz,
+            sx: d[kx] / d[kz],
+            sy: d[ky] / d[kz],
+            sz: 1.0 / d[kz],
+        }
+    }
+
+    #[inline(always)]
+    fn shear(&self, p: Vec3A) -> Sheared {
+        let q = (p - self.origin).to_array();
+        Sheared {
+            x: q[self.kx] - self.sx * q[self.kz],
+            y: q[self.ky] - self.sy * q[self.kz],
+            z: self.sz * q[self.kz],
+        }
+    }
+
+    /// Intersects the triangle `(a, b, c)`; a hit is reported when its `t`
+    /// lies in `[t_min, t_max]`. Both sides of the triangle are hit;
+    /// zero-area triangles never are.
+    #[inline]
+    pub fn intersect(
+        &self,
+        a: Vec3A,
+        b: Vec3A,
+        c: Vec3A,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<TriangleHit> {
+        let (a, b, c) = (self.shear(a), self.shear(b), self.shear(c));
+        let u = c.x * b.y - c.y * b.x;
+        let v = a.x * c.y - a.y * c.x;
+        let w = b.x * a.y - b.y * a.x;
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            return exact_intersect(a, b, c, t_min, t_max);
+        }
+        let det = u + v + w;
+        let t = (u * a.z + v * b.z + w * c.z) / det;
+        if !(t >= t_min && t <= t_max) {
+            return None;
+        }
+        let inv = 1.0 / det;
+        Some(TriangleHit {
+            t,
+            u: v * inv,
+            v: w * inv,
+        })
+    }
+}
+
+/// The slow path for rays that graze an edge or vertex in `f32`: edge
+/// functions in exact `f64` arithmetic, exact zeros decided by the
+/// `(eps, eps^2)` perturbation.
+#[cold]
+fn exact_intersect(
+    a: Sheared,
+    b: Sheared,
+    c: Sheared,
+    t_min: f32,
+    t_max: f32,
+) -> Option<TriangleHit> {
+    let f = |p: Sheared| (p.x as f64, p.y as f64, p.z as f64);
+    let (a, b, c) = (f(a), f(b), f(c));
+    // Edge function of the directed edge s -> e at the sheared origin.
+    let edge = |s: (f64, f64, f64), e: (f64, f64, f64)| s.0 * e.1 - s.1 * e.0;
+    let u = edge(c, b);
+    let v = edge(a, c);
+    let w = edge(b, a);
+    // Sign of an edge function once the origin moves to (eps, eps^2):
+    // d/dx = s.y - e.y, d/dy = e.x - s.x.
+    let sign = |value: f64, s: (f64, f64, f64), e: (f64, f64, f64)| -> i8 {
+        let first = if value != 0.0 { value } else { s.1 - e.1 };
+        let second = if first != 0.0 { first } else { e.0 - s.0 };
+        (second > 0.0) as i8 - (second < 0.0) as i8
+    };
+    let su = sign(u, c, b);
+    let sv = sign(v, a, c);
+    let sw = sign(w, b, a);
+    if su == 0 || su != sv || su != sw {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return None;
+    }
+    let t = ((u * a.2 + v * b.2 + w * c.2) / det) as f32;
+    if !(t >= t_min && t <= t_max) {
+        return None;
+    }
+    Some(TriangleHit {
+        t,
+        u: (v / det) as f32,
+        v: (w / det) as f32,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn hit(o: Vec3, d: Vec3, tri: [Vec3; 3]) -> Option<TriangleHit> {
+        let r = WatertightRay::new(&Ray::new(o, d));
+        r.intersect(tri[0].into(), tri[1].into(), tri[2].into(), 0.0, f32::INFINITY)
+    }
+
+    const TRI: [Vec3; 3] = [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)];
+
+    #[test]
+    fn hits_the_inside_with_correct_barycentrics() {
+        let h = hit(Vec3::new(0.25, 0.5, 0.0), Vec3::Z, TRI).unwrap();
+        assert!((h.t - 1.0).abs() < 1e-6);
+        assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6);
+        // The back side is hit too.
+        let h = hit(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z, TRI).unwrap();
+        assert!((h.t - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn misses_outside_behind_and_out_of_range() {
+        assert!(hit(Vec3::new(0.8, 0.8, 0.0), Vec3::Z, TRI).is_none());
+        assert!(hit(Vec3::new(0.2, 0.2, 2.0), Vec3::Z, TRI).is_none());
+        let r = WatertightRay::new(&Ray::new(Vec3::new(0.2, 0.2, 0.0), Vec3::Z));
+        let [a, b, c] = TRI.map(Vec3A::from);
+        assert!(r.intersect(a, b, c, 0.0, 0.5).is_none());
+        assert!(r.intersect(a, b, c, 1.5, 9.0).is_none());
+    }
+
+    #[test]
+    fn degenerate_and_parallel_triangles_are_never_hit() {
+        let line = [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 1.0)];
+        assert!(hit(Vec3::new(0.5, 0.0, 0.0), Vec3::Z, line).is_none());
+        let point = [Vec3::Z; 3];
+        assert!(hit(Vec3::ZERO, Vec3::Z, point).is_none());
+        // A ray in the triangle's plane.
+        assert!(hit(Vec3::new(-1.0, 0.2, 1.0), Vec3::X, TRI).is_none());
+    }
+
+    /// A shared edge is hit by exactly one of its two triangles, whatever the
+    /// direction the ray crosses it in.
+    #[test]
+    fn shared_edge_is_hit_exactly_once() {
+        let (p0, p1, p2, p3) = (
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        );
+        let quad = [[p0, p1, p2], [p0, p2, p3]];
+        for o in [Vec3::new(0.5, 0.5, 0.0), Vec3::new(0.3, 0.3, 2.0), Vec3::new(0.7, 0.7, -3.0)] {
+            for target in [Vec3::new(0.5, 0.5, 1.0), Vec3::new(0.25, 0.25, 1.0), Vec3::new(0.9, 0.9, 1.0)] {
+                let d = target - o;
+                let n = quad.iter().filter(|t| hit(o, d, **t).is_some()).count();
+                assert_eq!(n, 1, "origin {o} target {target}");
+            }
+        }
+    }
+
+    /// A ray through the centre vertex of a fan hits exactly one triangle.
+    #[test]
+    fn shared_vertex_is_hit_exactly_once() {
+        let c = Vec3::new(0.0, 0.0, 1.0);
+        let k = 7;
+        let ring: Vec<Vec3> = (0..k)
+            .map(|i| {
+                let a = i as f32 / k as f32 * std::f32::consts::TAU;
+                Vec3::new(a.cos(), a.sin(), 1.0 + 0.3 * (i % 2) as f32)
+            })
+            .collect();
+        for o in [Vec3::ZERO, Vec3::new(0.3, -0.2, -1.0), Vec3::new(-0.1, 0.4, 3.0)] {
+            let n = (0..k)
+                .filter(|&i| hit(o, c - o, [c, ring[i], ring[(i + 1) % k]]).is_some())
+                .count();
+            assert_eq!(n, 1, "origin {o}");
+        }
+    }
+}

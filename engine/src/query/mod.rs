@@ -1,0 +1,1 @@
+//! Scene-level ray queries.
