@@ -1,0 +1,166 @@
+//! Binned SAH split (Wald 2007): centroids fall into equal-width bins along
+//! each axis and the split is chosen among bin boundaries by the surface
+//! area heuristic with a primitive-test cost of 1.
+
+use glam::Vec3A;
+use rayon::prelude::*;
+
+use super::{Context, Split};
+use crate::geometry::Aabb;
+
+pub(super) const MAX_BINS: usize = 64;
+
+#[derive(Clone, Copy)]
+struct Bin {
+    bounds: Aabb,
+    count: u32,
+}
+
+const EMPTY_BIN: Bin = Bin {
+    bounds: Aabb::EMPTY,
+    count: 0,
+};
+
+/// Bins of all three axes; fixed size so that a split allocates nothing.
+#[derive(Clone, Copy)]
+struct Bins([[Bin; MAX_BINS]; 3]);
+
+/// Maps a centroid to its bin along each axis.
+#[derive(Clone, Copy)]
+struct Binning {
+    origin: Vec3A,
+    scale: Vec3A,
+    last: usize,
+}
+
+impl Binning {
+    #[inline(always)]
+    fn bin(&self, c: Vec3A, axis: usize) -> usize {
+        let b = ((c[axis] - self.origin[axis]) * self.scale[axis]) as usize;
+        b.min(self.last)
+    }
+}
+
+pub(super) fn split(ctx: &Context, prims: &mut [u32]) -> Split {
+    let n = prims.len();
+    let parallel = n >= ctx.options.parallel_threshold;
+    let (bounds, centroid_bounds) = range_bounds(ctx, prims, parallel);
+    let extent = centroid_bounds.extent();
+    let parent_area = bounds.half_area();
+    if !(parent_area > 0.0) || extent.max_element() <= 0.0 {
+        return Split::Leaf;
+    }
+    let bins = ctx.options.bins;
+    let binning = Binning {
+        origin: centroid_bounds.min,
+        // Axes without extent get scale 0: one bin, never a candidate.
+        scale: Vec3A::select(
+            extent.cmpgt(Vec3A::ZERO),
+            Vec3A::splat(bins as f32) / extent,
+            Vec3A::ZERO,
+        ),
+        last: bins - 1,
+    };
+    let fill = |acc: &mut Bins, p: u32| {
+        let (c, b) = (ctx.centroids[p as usize], ctx.boxes[p as usize]);
+        for axis in 0..3 {
+            let bin = &mut acc.0[axis][binning.bin(c, axis)];
+            bin.bounds = bin.bounds.union(b);
+            bin.count += 1;
+        }
+    };
+    let binned = if parallel {
+        prims
+            .par_chunks(4096)
+            .map(|chunk| {
+                let mut acc = Bins([[EMPTY_BIN; MAX_BINS]; 3]);
+                chunk.iter().for_each(|&p| fill(&mut acc, p));
+                acc
+            })
+            .reduce(|| Bins([[EMPTY_BIN; MAX_BINS]; 3]), merge)
+    } else {
+        let mut acc = Bins([[EMPTY_BIN; MAX_BINS]; 3]);
+        prims.iter().for_each(|&p| fill(&mut acc, p));
+        acc
+    };
+
+    let mut best = (f32::INFINITY, 0usize, 0usize);
+    for axis in 0..3 {
+        if extent[axis] <= 0.0 {
+            continue;
+        }
+        let bins_axis = &binned.0[axis][..bins];
+        // Right-hand areas and counts for each boundary, swept once.
+        let mut right_cost = [0.0f32; MAX_BINS];
+        let (mut acc, mut count) = (Aabb::EMPTY, 0u32);
+        for i in (1..bins).rev() {
+            acc = acc.union(bins_axis[i].bounds);
+            count += bins_axis[i].count;
+            right_cost[i] = acc.half_area() * count as f32;
+        }
+        let (mut acc, mut count) = (Aabb::EMPTY, 0u32);
+        for i in 0..bins - 1 {
+            acc = acc.union(bins_axis[i].bounds);
+            count += bins_axis[i].count;
+            if count == 0 || count as usize == n {
+                continue;
+            }
+            let cost = acc.half_area() * count as f32 + right_cost[i + 1];
+            if cost < best.0 {
+                best = (cost, axis, i);
+            }
+        }
+    }
+    let (cost, axis, bin) = best;
+    if !cost.is_finite() {
+        return Split::Leaf;
+    }
+    let split_cost = ctx.options.traversal_cost + cost / parent_area;
+    if split_cost >= n as f32 && n <= ctx.options.max_leaf_size as usize {
+        return Split::Leaf;
+    }
+    let mid = partition(prims, |p| binning.bin(ctx.centroids[p as usize], axis) <= bin);
+    if mid == 0 || mid == n {
+        return Split::At(n / 2);
+    }
+    Split::At(mid)
+}
+
+fn merge(mut a: Bins, b: Bins) -> Bins {
+    for axis in 0..3 {
+        for (x, y) in a.0[axis].iter_mut().zip(&b.0[axis]) {
+            x.bounds = x.bounds.union(y.bounds);
+            x.count += y.count;
+        }
+    }
+    a
+}
+
+/// The union of the primitives' boxes and the box of their centroids.
+fn range_bounds(ctx: &Context, prims: &[u32], parallel: bool) -> (Aabb, Aabb) {
+    let one = |p: &u32| {
+        let c = ctx.centroids[*p as usize];
+        (ctx.boxes[*p as usize], Aabb::new(c, c))
+    };
+    let join = |a: (Aabb, Aabb), b: (Aabb, Aabb)| (a.0.union(b.0), a.1.union(b.1));
+    let empty = (Aabb::EMPTY, Aabb::EMPTY);
+    if parallel {
+        prims.par_iter().with_min_len(4096).map(one).reduce(|| empty, join)
+    } else {
+        prims.iter().map(one).fold(empty, join)
+    }
+}
+
+/// Moves the elements for which `left` holds to the front; returns how many.
+fn partition(items: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
+    let (mut i, mut j) = (0, items.len());
+    while i < j {
+        if left(items[i]) {
+            i += 1;
+        } else {
+            j -= 1;
+            items.swap(i, j);
+        }
+    }
+    i
+}

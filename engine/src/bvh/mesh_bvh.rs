@@ -1,0 +1,276 @@
+//! A BVH bound to one triangle mesh, with the mesh's triangles copied in
+//! leaf order so that a leaf's triangles are contiguous in memory.
+
+use std::time::Instant;
+
+use glam::{Vec3, Vec3A};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::refit::{refit_nodes, DEFAULT_REBUILD_THRESHOLD};
+use super::traverse::RayBoxTest;
+use super::{quality, BuildOptions, Bvh};
+use crate::geometry::{Aabb, Ray, TriangleMesh, WatertightRay};
+use crate::{Error, Result};
+
+/// A ray's nearest hit on a mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshHit {
+    /// Distance along the ray, in units of the ray direction's length.
+    pub t: f32,
+    /// Index of the triangle in the mesh.
+    pub triangle: u32,
+    /// Barycentric weight of the triangle's second corner.
+    pub u: f32,
+    /// Barycentric weight of the triangle's third corner.
+    pub v: f32,
+    /// Unit geometric normal `(b - a) x (c - a)`, in the mesh's frame.
+    pub normal: Vec3,
+}
+
+/// What a refit measured.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct RefitReport {
+    /// The rebuild heuristic's measure (see [`quality`]); 0 right after a build.
+    pub degradation: f32,
+}
+
+/// What [`MeshBvh::update`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UpdateAction {
+    Refit,
+    Rebuild,
+}
+
+/// The outcome of [`MeshBvh::update`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct UpdateReport {
+    pub action: UpdateAction,
+    /// Degradation measured after refitting; `None` when the triangle count
+    /// changed and the tree was rebuilt without refitting.
+    pub degradation: Option<f32>,
+    pub elapsed_ms: f64,
+}
+
+/// A BVH over one triangle mesh.
+#[derive(Clone, Debug)]
+pub struct MeshBvh {
+    bvh: Bvh,
+    /// Triangle corners in leaf order: `triangles[i]` is mesh triangle
+    /// `bvh.prim_ids[i]`. 48 bytes each, aligned for SIMD loads.
+    triangles: Vec<[Vec3A; 3]>,
+    options: BuildOptions,
+}
+
+impl MeshBvh {
+    /// Builds the hierarchy of `mesh`.
+    pub fn build(mesh: &TriangleMesh, options: &BuildOptions) -> Self {
+        let n = mesh.triangle_count();
+        let boxes: Vec<Aabb> = (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|t| {
+                let [a, b, c] = mesh.corners(t);
+                Aabb::of_triangle(a, b, c)
+            })
+            .collect();
+        let bvh = Bvh::build(&boxes, options);
+        let triangles = bvh
+            .prim_ids
+            .par_iter()
+            .with_min_len(4096)
+            .map(|&t| mesh.corners(t as usize))
+            .collect();
+        Self {
+            bvh,
+            triangles,
+            options: options.clone(),
+        }
+    }
+
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    pub fn options(&self) -> &BuildOptions {
+        &self.options
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.bvh.bounds()
+    }
+
+    /// SAH cost with unit traversal and intersection costs.
+    pub fn sah_cost(&self) -> f32 {
+        quality::sah_cost(&self.bvh.nodes, 1.0)
+    }
+
+    /// Bytes held: nodes, leaf order, build ratios and triangle copies.
+    pub fn memory_bytes(&self) -> usize {
+        self.bvh.memory_bytes() + self.triangles.capacity() * std::mem::size_of::<[Vec3A; 3]>()
+    }
+
+    /// Refits to new vertex positions of the same mesh (same triangles).
+    /// O(n): triangle copies and leaves update in parallel, inner nodes in
+    /// one reverse sweep.
+    pub fn refit(&mut self, mesh: &TriangleMesh) -> Result<RefitReport> {
+        if mesh.triangle_count() != self.triangles.len() {
+            return Err(Error::InvalidScene(format!(
+                "refit needs the same {} triangles, got {}",
+                self.triangles.len(),
+                mesh.triangle_count()
+            )));
+        }
+        let ids = &self.bvh.prim_ids;
+        self.triangles
+            .par_iter_mut()
+            .with_min_len(4096)
+            .zip(ids.par_iter())
+            .for_each(|(tri, &t)| *tri = mesh.corners(t as usize));
+        let triangles = &self.triangles;
+        refit_nodes(&mut self.bvh.nodes, |first, count| {
+            triangles[first as usize..(first + count) as usize]
+                .iter()
+                .fold(Aabb::EMPTY, |b, [p, q, r]| b.union(Aabb::of_triangle(*p, *q, *r)))
+        });
+        let degradation = quality::degradation(&self.bvh.nodes, &self.bvh.build_ratios, |f, c| {
+            leaf_area_sum(triangles, f, c)
+        });
+        Ok(RefitReport { degradation })
+    }
+
+    /// Brings the hierarchy up to date with `mesh`: refits, and rebuilds when
+    /// the rebuild heuristic's degradation exceeds `threshold` or when the
+    /// triangle count changed.
+    pub fn update(&mut self, mesh: &TriangleMesh, threshold: f32) -> UpdateReport {
+        let start = Instant::now();
+        let elapsed = || start.elapsed().as_secs_f64() * 1e3;
+        if mesh.triangle_count() != self.triangles.len() {
+            *self = Self::build(mesh, &self.options);
+            return UpdateReport {
+                action: UpdateAction::Rebuild,
+                degradation: None,
+                elapsed_ms: elapsed(),
+            };
+        }
+        let degradation = self.refit(mesh).map(|r| r.degradation).ok();
+        let action = match degradation {
+            Some(d) if d <= threshold => UpdateAction::Refit,
+            _ => {
+                *self = Self::build(mesh, &self.options);
+                UpdateAction::Rebuild
+            }
+        };
+        UpdateReport {
+            action,
+            degradation,
+            elapsed_ms: elapsed(),
+        }
+    }
+
+    /// [`update`](Self::update) with the default threshold.
+    pub fn update_default(&mut self, mesh: &TriangleMesh) -> UpdateReport {
+        self.update(mesh, DEFAULT_REBUILD_THRESHOLD)
+    }
+
+    /// The nearest hit within the ray's range. Invalid rays (non-finite or
+    /// zero direction) hit nothing.
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray) -> Option<MeshHit> {
+        if !ray.is_valid() {
+            return None;
+        }
+        let boxes = RayBoxTest::new(ray);
+        let tri_ray = WatertightRay::new(ray);
+        let mut best = None;
+        let t_min = ray.t_min;
+        self.bvh.traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
+            for slot in first..first + count {
+                let [a, b, c] = self.triangles[slot as usize];
+                if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
+                    *t_max = h.t;
+                    best = Some((slot, h));
+                }
+            }
+            false
+        });
+        best.map(|(slot, h)| {
+            let [a, b, c] = self.triangles[slot as usize];
+            MeshHit {
+                t: h.t,
+                triangle: self.bvh.prim_ids[slot as usize],
+                u: h.u,
+                v: h.v,
+                normal: Vec3::from((b - a).cross(c - a).normalize_or_zero()),
+            }
+        })
+    }
+
+    /// Whether anything lies on the ray within its range (occlusion).
+    #[inline]
+    pub fn any_hit(&self, ray: &Ray) -> bool {
+        if !ray.is_valid() {
+            return false;
+        }
+        let boxes = RayBoxTest::new(ray);
+        let tri_ray = WatertightRay::new(ray);
+        let mut hit = false;
+        let t_min = ray.t_min;
+        self.bvh.traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
+            hit = self.triangles[first as usize..(first + count) as usize]
+                .iter()
+                .any(|[a, b, c]| tri_ray.intersect(*a, *b, *c, t_min, *t_max).is_some());
+            hit
+        });
+        hit
+    }
+
+    /// Calls `visit(triangle, t)` for every triangle the ray crosses within
+    /// its range, in no particular order. A ray through a shared edge or
+    /// vertex of a closed mesh reports exactly one of the triangles there.
+    pub fn for_each_hit(&self, ray: &Ray, mut visit: impl FnMut(u32, f32)) {
+        if !ray.is_valid() {
+            return;
+        }
+        let boxes = RayBoxTest::new(ray);
+        let tri_ray = WatertightRay::new(ray);
+        let t_min = ray.t_min;
+        self.bvh.traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
+            for slot in first..first + count {
+                let [a, b, c] = self.triangles[slot as usize];
+                if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
+                    visit(self.bvh.prim_ids[slot as usize], h.t);
+                }
+            }
+            false
+        });
+    }
+
+    /// [`closest_hit`](Self::closest_hit) for many rays, in parallel.
+    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<MeshHit>> {
+        rays.par_iter()
+            .with_min_len(256)
+            .map(|r| self.closest_hit(r))
+            .collect()
+    }
+
+    /// [`any_hit`](Self::any_hit) for many rays, in parallel.
+    pub fn any_hits(&self, rays: &[Ray]) -> Vec<bool> {
+        rays.par_iter()
+            .with_min_len(256)
+            .map(|r| self.any_hit(r))
+            .collect()
+    }
+}
+
+fn leaf_area_sum(triangles: &[[Vec3A; 3]], first: u32, count: u32) -> f32 {
+    triangles[first as usize..(first + count) as usize]
+        .iter()
+        .map(|[a, b, c]| Aabb::of_triangle(*a, *b, *c).half_area())
+        .sum()
+}
