@@ -4,6 +4,7 @@
 mod aabb;
 mod mesh;
 mod ray;
+pub mod shapes;
 mod transform;
 pub mod triangle;
 

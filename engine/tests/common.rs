@@ -1,0 +1,58 @@
+//! Helpers shared by the engine's integration tests.
+#![allow(dead_code)]
+
+use frusta_engine::bvh::{BuildMethod, BuildOptions};
+use frusta_engine::geometry::TriangleMesh;
+use glam::{Quat, Vec3};
+
+/// A small deterministic generator (SplitMix64), so tests need no crate.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f32()
+    }
+
+    /// Uniform on the unit sphere.
+    pub fn direction(&mut self) -> Vec3 {
+        let z = self.range(-1.0, 1.0);
+        let a = self.range(0.0, std::f32::consts::TAU);
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(r * a.cos(), r * a.sin(), z)
+    }
+}
+
+/// Every builder, so that each property is checked on each.
+pub fn all_methods() -> [BuildOptions; 3] {
+    [BuildMethod::Sah, BuildMethod::Lbvh, BuildMethod::Hybrid].map(|m| BuildOptions {
+        // Small thresholds so that the parallel and hybrid paths run on
+        // test-sized meshes too.
+        parallel_threshold: 256,
+        hybrid_sah_size: 64,
+        ..BuildOptions::with_method(m)
+    })
+}
+
+/// `mesh` with every vertex moved by `f`.
+pub fn deformed(mesh: &TriangleMesh, f: impl Fn(Vec3) -> Vec3) -> TriangleMesh {
+    let positions = mesh.positions().iter().map(|&p| f(p)).collect();
+    TriangleMesh::new(positions, mesh.triangles().to_vec()).unwrap()
+}
+
+/// `mesh` rotated, scaled and moved.
+pub fn placed(mesh: &TriangleMesh, rotation: Quat, scale: f32, offset: Vec3) -> TriangleMesh {
+    deformed(mesh, |p| rotation * (p * scale) + offset)
+}
