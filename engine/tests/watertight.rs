@@ -36,7 +36,13 @@ fn assert_no_leaks(mesh: &TriangleMesh, origin: Vec3, random: usize, crossings: 
         let rays: Vec<Ray> = dirs.iter().map(|&d| Ray::new(origin, d)).collect();
         let closest = bvh.closest_hits(&rays);
         let escaped = closest.iter().filter(|h| h.is_none()).count();
-        assert_eq!(escaped, 0, "{:?}: {escaped} of {} rays escaped", options.method, rays.len());
+        assert_eq!(
+            escaped,
+            0,
+            "{:?}: {escaped} of {} rays escaped",
+            options.method,
+            rays.len()
+        );
         let occluded = bvh.any_hits(&rays).iter().filter(|&&h| h).count();
         assert_eq!(occluded, rays.len(), "{:?}: any-hit missed", options.method);
         for ray in &rays {
@@ -44,7 +50,12 @@ fn assert_no_leaks(mesh: &TriangleMesh, origin: Vec3, random: usize, crossings: 
             bvh.for_each_hit(ray, |_, _| n += 1);
             match crossings {
                 Some(c) => assert_eq!(n, c, "{:?}: ray {ray:?} crossed {n} times", options.method),
-                None => assert_eq!(n % 2, 1, "{:?}: ray {ray:?} crossed {n} times", options.method),
+                None => assert_eq!(
+                    n % 2,
+                    1,
+                    "{:?}: ray {ray:?} crossed {n} times",
+                    options.method
+                ),
             }
         }
     }
@@ -54,7 +65,11 @@ fn assert_no_leaks(mesh: &TriangleMesh, origin: Vec3, random: usize, crossings: 
 fn cube_lets_nothing_out() {
     let cube = shapes::cube(1.0, 4);
     // Dyadic origins: directions to vertices and edge midpoints are exact.
-    for origin in [Vec3::ZERO, Vec3::new(0.25, -0.5, 0.125), Vec3::new(0.5, 0.5, 0.5)] {
+    for origin in [
+        Vec3::ZERO,
+        Vec3::new(0.25, -0.5, 0.125),
+        Vec3::new(0.5, 0.5, 0.5),
+    ] {
         assert_no_leaks(&cube, origin, 20_000, Some(1));
     }
 }
@@ -62,7 +77,11 @@ fn cube_lets_nothing_out() {
 #[test]
 fn icosphere_lets_nothing_out() {
     let sphere = shapes::icosphere(1.0, 3);
-    for origin in [Vec3::ZERO, Vec3::new(0.3, -0.2, 0.1), Vec3::new(0.0, 0.0, 0.99)] {
+    for origin in [
+        Vec3::ZERO,
+        Vec3::new(0.3, -0.2, 0.1),
+        Vec3::new(0.0, 0.0, 0.99),
+    ] {
         assert_no_leaks(&sphere, origin, 20_000, Some(1));
     }
 }
@@ -81,7 +100,12 @@ fn rotated_meshes_at_tiny_and_huge_scales_let_nothing_out() {
     for scale in [0.01, 1.0, 10_000.0] {
         let offset = Vec3::new(3.0, -7.0, 11.0) * scale;
         let sphere = placed(&shapes::icosphere(1.0, 2), rotation, scale, offset);
-        assert_no_leaks(&sphere, offset + Vec3::new(0.1, 0.2, -0.3) * scale, 5_000, Some(1));
+        assert_no_leaks(
+            &sphere,
+            offset + Vec3::new(0.1, 0.2, -0.3) * scale,
+            5_000,
+            Some(1),
+        );
         let cube = placed(&shapes::cube(1.0, 3), rotation, scale, offset);
         assert_no_leaks(&cube, offset, 5_000, Some(1));
     }
@@ -99,7 +123,11 @@ fn a_million_random_rays_stay_inside() {
         let rays: Vec<Ray> = (0..100_000)
             .map(|_| Ray::new(rng.direction() * rng.range(0.0, 0.9), rng.direction()))
             .collect();
-        escaped += bvh.closest_hits(&rays).iter().filter(|h| h.is_none()).count();
+        escaped += bvh
+            .closest_hits(&rays)
+            .iter()
+            .filter(|h| h.is_none())
+            .count();
     }
     assert_eq!(escaped, 0);
 }

@@ -136,7 +136,9 @@ impl MeshBvh {
         refit_nodes(&mut self.bvh.nodes, |first, count| {
             triangles[first as usize..(first + count) as usize]
                 .iter()
-                .fold(Aabb::EMPTY, |b, [p, q, r]| b.union(Aabb::of_triangle(*p, *q, *r)))
+                .fold(Aabb::EMPTY, |b, [p, q, r]| {
+                    b.union(Aabb::of_triangle(*p, *q, *r))
+                })
         });
         let degradation = quality::degradation(&self.bvh.nodes, &self.bvh.build_ratios, |f, c| {
             leaf_area_sum(triangles, f, c)
@@ -189,16 +191,17 @@ impl MeshBvh {
         let tri_ray = WatertightRay::new(ray);
         let mut best = None;
         let t_min = ray.t_min;
-        self.bvh.traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
-            for slot in first..first + count {
-                let [a, b, c] = self.triangles[slot as usize];
-                if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
-                    *t_max = h.t;
-                    best = Some((slot, h));
+        self.bvh
+            .traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
+                for slot in first..first + count {
+                    let [a, b, c] = self.triangles[slot as usize];
+                    if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
+                        *t_max = h.t;
+                        best = Some((slot, h));
+                    }
                 }
-            }
-            false
-        });
+                false
+            });
         best.map(|(slot, h)| {
             let [a, b, c] = self.triangles[slot as usize];
             MeshHit {
@@ -221,12 +224,13 @@ impl MeshBvh {
         let tri_ray = WatertightRay::new(ray);
         let mut hit = false;
         let t_min = ray.t_min;
-        self.bvh.traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
-            hit = self.triangles[first as usize..(first + count) as usize]
-                .iter()
-                .any(|[a, b, c]| tri_ray.intersect(*a, *b, *c, t_min, *t_max).is_some());
-            hit
-        });
+        self.bvh
+            .traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
+                hit = self.triangles[first as usize..(first + count) as usize]
+                    .iter()
+                    .any(|[a, b, c]| tri_ray.intersect(*a, *b, *c, t_min, *t_max).is_some());
+                hit
+            });
         hit
     }
 
@@ -240,15 +244,16 @@ impl MeshBvh {
         let boxes = RayBoxTest::new(ray);
         let tri_ray = WatertightRay::new(ray);
         let t_min = ray.t_min;
-        self.bvh.traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
-            for slot in first..first + count {
-                let [a, b, c] = self.triangles[slot as usize];
-                if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
-                    visit(self.bvh.prim_ids[slot as usize], h.t);
+        self.bvh
+            .traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
+                for slot in first..first + count {
+                    let [a, b, c] = self.triangles[slot as usize];
+                    if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
+                        visit(self.bvh.prim_ids[slot as usize], h.t);
+                    }
                 }
-            }
-            false
-        });
+                false
+            });
     }
 
     /// [`closest_hit`](Self::closest_hit) for many rays, in parallel.

@@ -42,7 +42,10 @@ fn node_ratio(nodes: &[Node], n: &Node, leaf_area_sum: &impl Fn(u32, u32) -> f32
         }
     } else {
         let l = n.first() as usize;
-        ratio(area, nodes[l].aabb().half_area() + nodes[l + 1].aabb().half_area())
+        ratio(
+            area,
+            nodes[l].aabb().half_area() + nodes[l + 1].aabb().half_area(),
+        )
     }
 }
 

@@ -169,9 +169,15 @@ mod tests {
     #[test]
     fn grazing_diagonal_ray_through_a_corner_enters() {
         let n = unit_node();
-        let test = RayBoxTest::new(&Ray::new(Vec3::new(-1.0, -1.0, 0.5), Vec3::new(1.0, 1.0, 0.0)));
+        let test = RayBoxTest::new(&Ray::new(
+            Vec3::new(-1.0, -1.0, 0.5),
+            Vec3::new(1.0, 1.0, 0.0),
+        ));
         assert!(test.entry(&n, 0.0, f32::INFINITY).is_some());
-        let test = RayBoxTest::new(&Ray::new(Vec3::new(-1.0, 1.0, 0.5), Vec3::new(1.0, 1.0, 0.0)));
+        let test = RayBoxTest::new(&Ray::new(
+            Vec3::new(-1.0, 1.0, 0.5),
+            Vec3::new(1.0, 1.0, 0.0),
+        ));
         assert!(test.entry(&n, 0.0, f32::INFINITY).is_none());
     }
 }

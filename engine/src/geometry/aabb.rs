@@ -35,7 +35,9 @@ impl Aabb {
 
     /// The box of a set of points.
     pub fn of_points(points: impl IntoIterator<Item = Vec3>) -> Self {
-        points.into_iter().fold(Self::EMPTY, |b, p| b.grow(p.into()))
+        points
+            .into_iter()
+            .fold(Self::EMPTY, |b, p| b.grow(p.into()))
     }
 
     #[inline]

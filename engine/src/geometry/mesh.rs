@@ -149,17 +149,27 @@ mod tests {
     #[test]
     fn rejects_invalid_input_with_clear_errors() {
         assert_eq!(TriangleMesh::new(tri(), vec![]), Err(Error::EmptyMesh));
-        assert_eq!(TriangleMesh::new(vec![], vec![[0, 1, 2]]), Err(Error::NoVertices));
+        assert_eq!(
+            TriangleMesh::new(vec![], vec![[0, 1, 2]]),
+            Err(Error::NoVertices)
+        );
         let err = TriangleMesh::new(tri(), vec![[0, 1, 3]]).unwrap_err();
         assert_eq!(
             err,
-            Error::IndexOutOfRange { triangle: 0, index: 3, vertex_count: 3 }
+            Error::IndexOutOfRange {
+                triangle: 0,
+                index: 3,
+                vertex_count: 3
+            }
         );
         for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             let mut p = tri();
             p[1].y = bad;
             let err = TriangleMesh::new(p, vec![[0, 1, 2]]).unwrap_err();
-            assert!(matches!(err, Error::NonFiniteVertex { vertex: 1, .. }), "{err}");
+            assert!(
+                matches!(err, Error::NonFiniteVertex { vertex: 1, .. }),
+                "{err}"
+            );
         }
         let mut p = tri();
         p[2].z = 1e30;
@@ -186,11 +196,18 @@ mod tests {
         let mut m = TriangleMesh::new(tri(), vec![[0, 1, 2]]).unwrap();
         assert!(matches!(
             m.set_positions(vec![Vec3::ZERO]),
-            Err(Error::VertexCountMismatch { expected: 3, actual: 1 })
+            Err(Error::VertexCountMismatch {
+                expected: 3,
+                actual: 1
+            })
         ));
         let mut p = tri();
         p[0].x = f32::NAN;
         assert!(m.set_positions(p).is_err());
-        assert_eq!(m.positions(), &tri()[..], "a failed update keeps the old positions");
+        assert_eq!(
+            m.positions(),
+            &tri()[..],
+            "a failed update keeps the old positions"
+        );
     }
 }

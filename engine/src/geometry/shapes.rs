@@ -14,7 +14,14 @@ pub fn cube(half: f32, n: u32) -> TriangleMesh {
     let mut builder = Welder::default();
     // For each face: normal axis, sign, and the two in-face axes such that
     // u x v points along the outward normal.
-    for (axis, sign) in [(0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0), (2, 1.0), (2, -1.0)] {
+    for (axis, sign) in [
+        (0, 1.0),
+        (0, -1.0),
+        (1, 1.0),
+        (1, -1.0),
+        (2, 1.0),
+        (2, -1.0),
+    ] {
         let (mut ua, mut va) = ((axis + 1) % 3, (axis + 2) % 3);
         if sign < 0.0 {
             std::mem::swap(&mut ua, &mut va);
@@ -118,7 +125,12 @@ pub fn torus(major: f32, minor: f32, rings: u32, sides: u32) -> TriangleMesh {
     let triangles = (0..rings)
         .flat_map(|i| (0..sides).map(move |j| (i, j)))
         .flat_map(|(i, j)| {
-            let (a, b, c, d) = (index(i, j), index(i + 1, j), index(i + 1, j + 1), index(i, j + 1));
+            let (a, b, c, d) = (
+                index(i, j),
+                index(i + 1, j),
+                index(i + 1, j + 1),
+                index(i, j + 1),
+            );
             [[a, b, c], [a, c, d]]
         })
         .collect();

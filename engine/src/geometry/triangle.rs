@@ -183,10 +183,20 @@ mod tests {
 
     fn hit(o: Vec3, d: Vec3, tri: [Vec3; 3]) -> Option<TriangleHit> {
         let r = WatertightRay::new(&Ray::new(o, d));
-        r.intersect(tri[0].into(), tri[1].into(), tri[2].into(), 0.0, f32::INFINITY)
+        r.intersect(
+            tri[0].into(),
+            tri[1].into(),
+            tri[2].into(),
+            0.0,
+            f32::INFINITY,
+        )
     }
 
-    const TRI: [Vec3; 3] = [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)];
+    const TRI: [Vec3; 3] = [
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(0.0, 1.0, 1.0),
+    ];
 
     #[test]
     fn hits_the_inside_with_correct_barycentrics() {
@@ -210,7 +220,11 @@ mod tests {
 
     #[test]
     fn degenerate_and_parallel_triangles_are_never_hit() {
-        let line = [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 1.0)];
+        let line = [
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(2.0, 0.0, 1.0),
+        ];
         assert!(hit(Vec3::new(0.5, 0.0, 0.0), Vec3::Z, line).is_none());
         let point = [Vec3::Z; 3];
         assert!(hit(Vec3::ZERO, Vec3::Z, point).is_none());
@@ -229,8 +243,16 @@ mod tests {
             Vec3::new(0.0, 1.0, 1.0),
         );
         let quad = [[p0, p1, p2], [p0, p2, p3]];
-        for o in [Vec3::new(0.5, 0.5, 0.0), Vec3::new(0.3, 0.3, 2.0), Vec3::new(0.7, 0.7, -3.0)] {
-            for target in [Vec3::new(0.5, 0.5, 1.0), Vec3::new(0.25, 0.25, 1.0), Vec3::new(0.9, 0.9, 1.0)] {
+        for o in [
+            Vec3::new(0.5, 0.5, 0.0),
+            Vec3::new(0.3, 0.3, 2.0),
+            Vec3::new(0.7, 0.7, -3.0),
+        ] {
+            for target in [
+                Vec3::new(0.5, 0.5, 1.0),
+                Vec3::new(0.25, 0.25, 1.0),
+                Vec3::new(0.9, 0.9, 1.0),
+            ] {
                 let d = target - o;
                 let n = quad.iter().filter(|t| hit(o, d, **t).is_some()).count();
                 assert_eq!(n, 1, "origin {o} target {target}");
@@ -249,7 +271,11 @@ mod tests {
                 Vec3::new(a.cos(), a.sin(), 1.0 + 0.3 * (i % 2) as f32)
             })
             .collect();
-        for o in [Vec3::ZERO, Vec3::new(0.3, -0.2, -1.0), Vec3::new(-0.1, 0.4, 3.0)] {
+        for o in [
+            Vec3::ZERO,
+            Vec3::new(0.3, -0.2, -1.0),
+            Vec3::new(-0.1, 0.4, 3.0),
+        ] {
             let n = (0..k)
                 .filter(|&i| hit(o, c - o, [c, ring[i], ring[(i + 1) % k]]).is_some())
                 .count();

@@ -119,7 +119,9 @@ pub(super) fn split(ctx: &Context, prims: &mut [u32]) -> Split {
     if split_cost >= n as f32 && n <= ctx.options.max_leaf_size as usize {
         return Split::Leaf;
     }
-    let mid = partition(prims, |p| binning.bin(ctx.centroids[p as usize], axis) <= bin);
+    let mid = partition(prims, |p| {
+        binning.bin(ctx.centroids[p as usize], axis) <= bin
+    });
     if mid == 0 || mid == n {
         return Split::At(n / 2);
     }
@@ -145,7 +147,11 @@ fn range_bounds(ctx: &Context, prims: &[u32], parallel: bool) -> (Aabb, Aabb) {
     let join = |a: (Aabb, Aabb), b: (Aabb, Aabb)| (a.0.union(b.0), a.1.union(b.1));
     let empty = (Aabb::EMPTY, Aabb::EMPTY);
     if parallel {
-        prims.par_iter().with_min_len(4096).map(one).reduce(|| empty, join)
+        prims
+            .par_iter()
+            .with_min_len(4096)
+            .map(one)
+            .reduce(|| empty, join)
     } else {
         prims.iter().map(one).fold(empty, join)
     }
