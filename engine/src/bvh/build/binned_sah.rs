@@ -11,7 +11,7 @@ use crate::geometry::Aabb;
 pub(super) const MAX_BINS: usize = 64;
 
 #[derive(Clone, Copy)]
-struct Bin {
+pub(super) struct Bin {
     bounds: Aabb,
     count: u32,
 }
@@ -21,9 +21,12 @@ const EMPTY_BIN: Bin = Bin {
     count: 0,
 };
 
-/// Bins of all three axes; fixed size so that a split allocates nothing.
-#[derive(Clone, Copy)]
-struct Bins([[Bin; MAX_BINS]; 3]);
+/// Bins of the three axes, `bins` per axis, reused across the splits of a
+/// subtree so that a split allocates nothing and clears only what it uses.
+#[derive(Default)]
+pub(super) struct Scratch {
+    bins: Vec<Bin>,
+}
 
 /// Maps a centroid to its bin along each axis.
 #[derive(Clone, Copy)]
@@ -39,9 +42,19 @@ impl Binning {
         let b = ((c[axis] - self.origin[axis]) * self.scale[axis]) as usize;
         b.min(self.last)
     }
+
+    /// Adds a primitive to its bin on each axis of `bins` (axis-major).
+    #[inline(always)]
+    fn add(&self, bins: &mut [Bin], stride: usize, c: Vec3A, b: Aabb) {
+        for axis in 0..3 {
+            let bin = &mut bins[axis * stride + self.bin(c, axis)];
+            bin.bounds = bin.bounds.union(b);
+            bin.count += 1;
+        }
+    }
 }
 
-pub(super) fn split(ctx: &Context, prims: &mut [u32]) -> Split {
+pub(super) fn split(ctx: &Context, prims: &mut [u32], scratch: &mut Scratch) -> Split {
     let n = prims.len();
     let parallel = n >= ctx.options.parallel_threshold;
     let (bounds, centroid_bounds) = range_bounds(ctx, prims, parallel);
@@ -50,7 +63,9 @@ pub(super) fn split(ctx: &Context, prims: &mut [u32]) -> Split {
     if !(parent_area > 0.0) || extent.max_element() <= 0.0 {
         return Split::Leaf;
     }
-    let bins = ctx.options.bins;
+    // Few primitives need few bins; clearing and sweeping them is the
+    // fixed cost of a split.
+    let bins = ctx.options.bins.min(n.max(4));
     let binning = Binning {
         origin: centroid_bounds.min,
         // Axes without extent get scale 0: one bin, never a candidate.
@@ -61,35 +76,44 @@ pub(super) fn split(ctx: &Context, prims: &mut [u32]) -> Split {
         ),
         last: bins - 1,
     };
-    let fill = |acc: &mut Bins, p: u32| {
-        let (c, b) = (ctx.centroids[p as usize], ctx.boxes[p as usize]);
-        for axis in 0..3 {
-            let bin = &mut acc.0[axis][binning.bin(c, axis)];
-            bin.bounds = bin.bounds.union(b);
-            bin.count += 1;
-        }
-    };
-    let binned = if parallel {
-        prims
+    let size = 3 * bins;
+    let binned = &mut scratch.bins;
+    binned.clear();
+    if parallel {
+        let merged = prims
             .par_chunks(4096)
             .map(|chunk| {
-                let mut acc = Bins([[EMPTY_BIN; MAX_BINS]; 3]);
-                chunk.iter().for_each(|&p| fill(&mut acc, p));
+                let mut acc = vec![EMPTY_BIN; size];
+                for &p in chunk {
+                    binning.add(
+                        &mut acc,
+                        bins,
+                        ctx.centroids[p as usize],
+                        ctx.boxes[p as usize],
+                    );
+                }
                 acc
             })
-            .reduce(|| Bins([[EMPTY_BIN; MAX_BINS]; 3]), merge)
+            .reduce(|| vec![EMPTY_BIN; size], merge);
+        binned.extend(merged);
     } else {
-        let mut acc = Bins([[EMPTY_BIN; MAX_BINS]; 3]);
-        prims.iter().for_each(|&p| fill(&mut acc, p));
-        acc
-    };
+        binned.resize(size, EMPTY_BIN);
+        for &p in prims.iter() {
+            binning.add(
+                binned,
+                bins,
+                ctx.centroids[p as usize],
+                ctx.boxes[p as usize],
+            );
+        }
+    }
 
     let mut best = (f32::INFINITY, 0usize, 0usize);
     for axis in 0..3 {
         if extent[axis] <= 0.0 {
             continue;
         }
-        let bins_axis = &binned.0[axis][..bins];
+        let bins_axis = &binned[axis * bins..(axis + 1) * bins];
         // Right-hand areas and counts for each boundary, swept once.
         let mut right_cost = [0.0f32; MAX_BINS];
         let (mut acc, mut count) = (Aabb::EMPTY, 0u32);
@@ -128,12 +152,10 @@ pub(super) fn split(ctx: &Context, prims: &mut [u32]) -> Split {
     Split::At(mid)
 }
 
-fn merge(mut a: Bins, b: Bins) -> Bins {
-    for axis in 0..3 {
-        for (x, y) in a.0[axis].iter_mut().zip(&b.0[axis]) {
-            x.bounds = x.bounds.union(y.bounds);
-            x.count += y.count;
-        }
+fn merge(mut a: Vec<Bin>, b: Vec<Bin>) -> Vec<Bin> {
+    for (x, y) in a.iter_mut().zip(&b) {
+        x.bounds = x.bounds.union(y.bounds);
+        x.count += y.count;
     }
     a
 }

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{quality, refit, Bvh, Node};
 use crate::geometry::Aabb;
+use binned_sah::Scratch;
 
 /// How the hierarchy is split.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -181,10 +182,11 @@ fn build_range(ctx: &Context, prims: &mut [u32], offset: usize, depth: u32) -> V
     if prims.len() < ctx.options.parallel_threshold {
         let mut nodes = Vec::with_capacity(2 * prims.len().div_ceil(2));
         nodes.push(Node::default());
-        build_sequential(ctx, &mut nodes, 0, prims, offset, depth);
+        let mut scratch = Scratch::default();
+        build_sequential(ctx, &mut scratch, &mut nodes, 0, prims, offset, depth);
         return nodes;
     }
-    match split(ctx, prims, offset, depth) {
+    match split(ctx, &mut Scratch::default(), prims, offset, depth) {
         Split::Leaf => vec![Node::leaf(Aabb::EMPTY, offset as u32, prims.len() as u32)],
         Split::At(mid) => {
             let (lp, rp) = prims.split_at_mut(mid);
@@ -199,13 +201,14 @@ fn build_range(ctx: &Context, prims: &mut [u32], offset: usize, depth: u32) -> V
 
 fn build_sequential(
     ctx: &Context,
+    scratch: &mut Scratch,
     nodes: &mut Vec<Node>,
     node: usize,
     prims: &mut [u32],
     offset: usize,
     depth: u32,
 ) {
-    match split(ctx, prims, offset, depth) {
+    match split(ctx, scratch, prims, offset, depth) {
         Split::Leaf => nodes[node] = Node::leaf(Aabb::EMPTY, offset as u32, prims.len() as u32),
         Split::At(mid) => {
             let first = nodes.len();
@@ -213,8 +216,8 @@ fn build_sequential(
             nodes.push(Node::default());
             nodes[node] = Node::inner(Aabb::EMPTY, first as u32);
             let (lp, rp) = prims.split_at_mut(mid);
-            build_sequential(ctx, nodes, first, lp, offset, depth + 1);
-            build_sequential(ctx, nodes, first + 1, rp, offset + mid, depth + 1);
+            build_sequential(ctx, scratch, nodes, first, lp, offset, depth + 1);
+            build_sequential(ctx, scratch, nodes, first + 1, rp, offset + mid, depth + 1);
         }
     }
 }
@@ -242,7 +245,13 @@ fn splice(left: Vec<Node>, right: Vec<Node>) -> Vec<Node> {
 }
 
 /// Chooses how `prims` splits, reordering it if the method needs to.
-fn split(ctx: &Context, prims: &mut [u32], offset: usize, depth: u32) -> Split {
+fn split(
+    ctx: &Context,
+    scratch: &mut Scratch,
+    prims: &mut [u32],
+    offset: usize,
+    depth: u32,
+) -> Split {
     let n = prims.len();
     let max_leaf = ctx.options.max_leaf_size as usize;
     if n <= 1 {
@@ -261,10 +270,10 @@ fn split(ctx: &Context, prims: &mut [u32], offset: usize, depth: u32) -> Split {
         &ctx.codes[offset..offset + n]
     };
     let split = match ctx.options.method {
-        BuildMethod::Sah => binned_sah::split(ctx, prims),
+        BuildMethod::Sah => binned_sah::split(ctx, prims, scratch),
         BuildMethod::Lbvh => morton::split(codes, max_leaf),
         BuildMethod::Hybrid if n > ctx.options.hybrid_sah_size => morton::split(codes, 1),
-        BuildMethod::Hybrid => binned_sah::split(ctx, prims),
+        BuildMethod::Hybrid => binned_sah::split(ctx, prims, scratch),
     };
     match split {
         Split::Leaf if n > max_leaf => Split::At(n / 2),
