@@ -21,13 +21,19 @@ fn every_bundled_scene_loads() {
         assert!(!scene.objects.is_empty(), "{}", path.display());
         for o in &scene.objects {
             assert_eq!(o.materials.len(), o.mesh.triangle_count());
-            assert!(o.materials.iter().all(|&m| (m as usize) < scene.materials.len()));
+            assert!(o
+                .materials
+                .iter()
+                .all(|&m| (m as usize) < scene.materials.len()));
             assert_eq!(o.mesh.degenerate_count(), 0, "{}", path.display());
         }
         found.push(path.file_stem().unwrap().to_string_lossy().into_owned());
     }
     found.sort();
-    assert_eq!(found, ["hall-10k", "hall-200k", "l-room", "shoebox", "two-rooms"]);
+    assert_eq!(
+        found,
+        ["hall-10k", "hall-200k", "l-room", "shoebox", "two-rooms"]
+    );
 }
 
 #[test]

@@ -40,7 +40,6 @@ pub fn parse_obj(text: &str) -> Result<RawMesh> {
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let loader = |_: &Path| -> tobj::MTLLoadResult {
         let materials: Vec<tobj::Material> = names

@@ -5,19 +5,20 @@
 //! serde reports) because a misspelt field silently ignored would give a
 //! wrong simulation rather than an error.
 
+mod json_in;
+mod json_out;
+mod scene_io;
+
 use std::collections::{BTreeMap, HashMap};
-use std::fmt;
 use std::path::Path;
 
 use glam::Vec3;
-use serde::de::{self, MapAccess, Visitor};
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
-use serde_json::Value;
+use serde::Deserialize;
 
 use super::generate::{BoxRoom, Hall, LRoom, TwoRooms};
 use super::library::builtin_material;
 use super::load::{load_mesh_file, resolve_relative};
-use super::{Bands, Material, MaterialId, RawMesh, Scene, SceneObject, BAND_COUNT};
+use super::{Bands, Material, MaterialId, RawMesh, Scene, SceneObject};
 use crate::geometry::{RigidTransform, TriangleMesh};
 use crate::{Error, Result};
 
@@ -30,7 +31,7 @@ pub struct SceneDocument {
     #[serde(default)]
     pub description: Option<String>,
     /// Declared materials in document order (the order fixes material ids).
-    #[serde(default, deserialize_with = "ordered_materials")]
+    #[serde(default, deserialize_with = "json_in::ordered_materials")]
     pub materials: Vec<(String, MaterialSpec)>,
     pub objects: Vec<ObjectSpec>,
 }
@@ -264,277 +265,11 @@ fn inline_raw(m: &InlineMesh) -> Result<RawMesh> {
     Ok(raw)
 }
 
-impl Scene {
-    /// Parses a JSON scene; relative mesh files resolve against `base_dir`
-    /// (a scene given without one may not refer to files).
-    pub fn from_json_str(text: &str, base_dir: Option<&Path>) -> Result<Scene> {
-        SceneDocument::parse(text)?.build(base_dir)
-    }
-
-    /// Loads a `.json` scene, or a bare `.obj`/`.gltf`/`.glb` file as a
-    /// one-object scene named after the file, whose triangles take the
-    /// library material of their file material name if there is one and
-    /// `"concrete"` otherwise.
-    pub fn load(path: &Path) -> Result<Scene> {
-        let dir = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p,
-            _ => Path::new("."),
-        };
-        let ext = super::load::extension(path);
-        if ext.as_deref() == Some("json") {
-            let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
-                path: path.display().to_string(),
-                reason: e.to_string(),
-            })?;
-            return Self::from_json_str(&text, Some(dir)).map_err(|e| match e {
-                Error::Parse { reason, .. } => Error::Parse {
-                    what: path.display().to_string(),
-                    reason,
-                },
-                other => other,
-            });
-        }
-        let file = path.file_name().and_then(|f| f.to_str());
-        let stem = path.file_stem().and_then(|f| f.to_str());
-        let (Some(file), Some(stem), Some("obj" | "gltf" | "glb")) = (file, stem, ext.as_deref())
-        else {
-            return Err(Error::Parse {
-                what: path.display().to_string(),
-                reason: "expected a .json scene or a .obj, .gltf or .glb mesh".into(),
-            });
-        };
-        SceneDocument {
-            name: Some(stem.to_owned()),
-            description: None,
-            materials: Vec::new(),
-            objects: vec![ObjectSpec {
-                name: stem.to_owned(),
-                dynamic: false,
-                transform: RigidTransform::IDENTITY,
-                material: Some("concrete".into()),
-                mesh: MeshSpec::File(FileMesh {
-                    file: file.to_owned(),
-                    materials: BTreeMap::new(),
-                }),
-            }],
-        }
-        .build(Some(dir))
-    }
-
-    /// The scene as a self-contained JSON document (inline meshes, every
-    /// material spelt out), which [`Scene::from_json_str`] reads back to an
-    /// equal scene. Material names must be unique.
-    pub fn to_json(&self) -> Result<String> {
-        for (i, m) in self.materials.iter().enumerate() {
-            if self.materials[..i].iter().any(|o| o.name == m.name) {
-                return Err(Error::InvalidScene(format!(
-                    "material name {:?} is used twice",
-                    m.name
-                )));
-            }
-        }
-        let objects = self
-            .objects
-            .iter()
-            .map(|o| {
-                let materials = o
-                    .materials
-                    .iter()
-                    .map(|&id| {
-                        self.materials
-                            .get(usize::from(id))
-                            .map(|m| m.name.as_str())
-                            .ok_or_else(|| {
-                                Error::InvalidScene(format!("material id {id} is out of range"))
-                                    .in_object(&o.name)
-                            })
-                    })
-                    .collect::<Result<Vec<_>>>()?;
-                Ok(OutObject {
-                    name: &o.name,
-                    dynamic: o.dynamic,
-                    transform: &o.transform,
-                    mesh: OutMesh {
-                        vertices: o.mesh.positions(),
-                        triangles: o.mesh.triangles(),
-                        materials,
-                    },
-                })
-            })
-            .collect::<Result<Vec<_>>>()?;
-        let doc = OutDocument {
-            materials: OutMaterials(&self.materials),
-            objects,
-        };
-        serde_json::to_string(&doc).map_err(|e| Error::InvalidScene(e.to_string()))
-    }
-}
-
-#[derive(Serialize)]
-struct OutDocument<'a> {
-    materials: OutMaterials<'a>,
-    objects: Vec<OutObject<'a>>,
-}
-
-/// Materials as a JSON object in table order, so ids survive a round trip.
-struct OutMaterials<'a>(&'a [Material]);
-
-impl Serialize for OutMaterials<'_> {
-    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-        #[derive(Serialize)]
-        struct Coefficients<'a> {
-            absorption: &'a Bands,
-            scattering: &'a Bands,
-            transmission: &'a Bands,
-        }
-        s.collect_map(self.0.iter().map(|m| {
-            let c = Coefficients {
-                absorption: &m.absorption,
-                scattering: &m.scattering,
-                transmission: &m.transmission,
-            };
-            (&m.name, c)
-        }))
-    }
-}
-
-#[derive(Serialize)]
-struct OutObject<'a> {
-    name: &'a str,
-    dynamic: bool,
-    transform: &'a RigidTransform,
-    mesh: OutMesh<'a>,
-}
-
-#[derive(Serialize)]
-struct OutMesh<'a> {
-    vertices: &'a [Vec3],
-    triangles: &'a [[u32; 3]],
-    materials: Vec<&'a str>,
-}
-
-/// Reads the `materials` object keeping document order and refusing
-/// duplicate names.
-fn ordered_materials<'de, D: Deserializer<'de>>(
-    d: D,
-) -> std::result::Result<Vec<(String, MaterialSpec)>, D::Error> {
-    struct Ordered;
-    impl<'de> Visitor<'de> for Ordered {
-        type Value = Vec<(String, MaterialSpec)>;
-        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-            f.write_str("an object mapping material names to materials")
-        }
-        fn visit_map<A: MapAccess<'de>>(
-            self,
-            mut map: A,
-        ) -> std::result::Result<Self::Value, A::Error> {
-            let mut out: Self::Value = Vec::new();
-            while let Some((name, spec)) = map.next_entry::<String, MaterialSpec>()? {
-                if out.iter().any(|(n, _)| *n == name) {
-                    return Err(de::Error::custom(format!(
-                        "material {name:?} is declared twice"
-                    )));
-                }
-                out.push((name, spec));
-            }
-            Ok(out)
-        }
-    }
-    d.deserialize_map(Ordered)
-}
-
-impl<'de> Deserialize<'de> for MaterialSpec {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        material_spec(Value::deserialize(d)?).map_err(de::Error::custom)
-    }
-}
-
-fn material_spec(v: Value) -> std::result::Result<MaterialSpec, String> {
-    let obj = match v {
-        Value::String(s) => return Ok(MaterialSpec::Library(s)),
-        Value::Object(o) => o,
-        _ => {
-            return Err(
-                "a material is a library name or an object with absorption, scattering and transmission"
-                    .into(),
-            )
-        }
-    };
-    if let Some(k) = obj
-        .keys()
-        .find(|k| !["absorption", "scattering", "transmission"].contains(&k.as_str()))
-    {
-        return Err(format!(
-            "unknown material field {k:?}; expected absorption, scattering or transmission"
-        ));
-    }
-    let bands = |key: &str, required: bool| -> std::result::Result<Bands, String> {
-        match obj.get(key) {
-            None if required => Err(format!("material needs \"{key}\"")),
-            None => Ok([0.0; BAND_COUNT]),
-            Some(Value::Number(n)) => Ok([n.as_f64().unwrap_or(f64::NAN) as f32; BAND_COUNT]),
-            Some(Value::Array(a)) if a.len() == BAND_COUNT => {
-                let mut out = [0.0; BAND_COUNT];
-                for (o, x) in out.iter_mut().zip(a) {
-                    *o = x.as_f64().ok_or_else(|| format!("{key} holds a non-number {x}"))? as f32;
-                }
-                Ok(out)
-            }
-            Some(other) => Err(format!(
-                "{key} must be one number or exactly {BAND_COUNT} numbers (63 Hz to 8 kHz), got {other}"
-            )),
-        }
-    };
-    Ok(MaterialSpec::Custom {
-        absorption: bands("absorption", true)?,
-        scattering: bands("scattering", false)?,
-        transmission: bands("transmission", false)?,
-    })
-}
-
-impl<'de> Deserialize<'de> for MeshSpec {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        mesh_spec(Value::deserialize(d)?).map_err(de::Error::custom)
-    }
-}
-
-const MESH_FORMS: &str = "a mesh is {\"vertices\", \"triangles\"}, {\"file\"}, or one of \
-                          {\"box_room\"}, {\"l_room\"}, {\"two_rooms\"}, {\"hall\"}";
-
-fn mesh_spec(v: Value) -> std::result::Result<MeshSpec, String> {
-    fn parse<T: de::DeserializeOwned>(what: &str, v: Value) -> std::result::Result<T, String> {
-        serde_json::from_value(v).map_err(|e| format!("{what}: {e}"))
-    }
-    let Value::Object(mut obj) = v else {
-        return Err(MESH_FORMS.into());
-    };
-    if obj.contains_key("vertices") || obj.contains_key("triangles") {
-        return parse("inline mesh", Value::Object(obj)).map(MeshSpec::Inline);
-    }
-    if obj.contains_key("file") {
-        return parse("file mesh", Value::Object(obj)).map(MeshSpec::File);
-    }
-    if obj.len() != 1 {
-        return Err(MESH_FORMS.into());
-    }
-    let (kind, params) = obj
-        .iter_mut()
-        .next()
-        .map(|(k, v)| (k.clone(), v.take()))
-        .ok_or(MESH_FORMS)?;
-    match kind.as_str() {
-        "box_room" => parse(&kind, params).map(MeshSpec::BoxRoom),
-        "l_room" => parse(&kind, params).map(MeshSpec::LRoom),
-        "two_rooms" => parse(&kind, params).map(MeshSpec::TwoRooms),
-        "hall" => parse(&kind, params).map(MeshSpec::Hall),
-        _ => Err(format!("unknown mesh kind {kind:?}; {MESH_FORMS}")),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::scene::load::test_dir;
+    use crate::scene::BAND_COUNT;
 
     const EXAMPLE: &str = r#"{
       "name": "shoebox", "description": "doc example",
