@@ -63,11 +63,15 @@ impl Material {
                 )));
             }
         }
-        for b in 0..BAND_COUNT {
-            if self.transmission[b] > self.absorption[b] + 1e-6 {
+        let bands = self
+            .transmission
+            .iter()
+            .zip(&self.absorption)
+            .zip(OCTAVE_BANDS_HZ);
+        for ((&t, &a), hz) in bands {
+            if t > a + 1e-6 {
                 return Err(fail(format!(
-                    "transmission {} exceeds absorption {} at {} Hz: transmitted energy is not reflected, so it counts as absorbed",
-                    self.transmission[b], self.absorption[b], OCTAVE_BANDS_HZ[b]
+                    "transmission {t} exceeds absorption {a} at {hz} Hz: transmitted energy is not reflected, so it counts as absorbed"
                 )));
             }
         }
