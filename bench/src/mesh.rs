@@ -87,8 +87,8 @@ pub fn load_obj(path: &Path) -> Result<BenchMesh, String> {
                 .map(|t| [base + t[0], base + t[1], base + t[2]]),
         );
     }
-    let mesh = TriangleMesh::new(positions, triangles)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let mesh =
+        TriangleMesh::new(positions, triangles).map_err(|e| format!("{}: {e}", path.display()))?;
     let name = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())

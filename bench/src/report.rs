@@ -41,8 +41,16 @@ fn opt(v: Option<f64>, prec: usize) -> String {
 /// The plain-text table for one mesh.
 pub fn table(r: &MeshReport) -> String {
     let header = [
-        "impl", "build ms", "refit ms", "SAH", "coh closest", "inc closest", "coh any", "inc any",
-        "B/tri", "mismatch",
+        "impl",
+        "build ms",
+        "refit ms",
+        "SAH",
+        "coh closest",
+        "inc closest",
+        "coh any",
+        "inc any",
+        "B/tri",
+        "mismatch",
     ];
     let mut rows = vec![header.map(String::from).to_vec()];
     for x in &r.results {

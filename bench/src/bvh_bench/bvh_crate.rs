@@ -33,10 +33,7 @@ impl Bounded<f32, 3> for Tri {
     fn aabb(&self) -> Aabb<f32, 3> {
         let [a, b, c] = self.v;
         let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
-        Aabb::with_bounds(
-            Point3::new(lo.x, lo.y, lo.z),
-            Point3::new(hi.x, hi.y, hi.z),
-        )
+        Aabb::with_bounds(Point3::new(lo.x, lo.y, lo.z), Point3::new(hi.x, hi.y, hi.z))
     }
 }
 
