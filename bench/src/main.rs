@@ -1,1 +1,173 @@
-fn main() {}
+//! `frusta-bench`: benchmarks for frusta.
+//!
+//! `frusta-bench bvh --mesh PATH [--json] [--rays N]` compares our BVH with
+//! peer libraries on the same mesh and rays (see `bvh_bench`). Further
+//! subcommands (`propagation`, `serve`) will join [`Command`].
+
+mod bvh_bench;
+mod frusta_impl;
+mod mesh;
+mod rays;
+mod report;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use bvh_bench::{Input, IMPLS};
+use mesh::BenchMesh;
+use report::MeshReport;
+
+#[derive(Parser)]
+#[command(name = "frusta-bench", about = "Benchmarks for frusta")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// BVH build, refit and trace: ours vs bvh, obvhs, parry3d (and Embree
+    /// with the `embree` feature).
+    Bvh(BvhArgs),
+}
+
+#[derive(clap::Args)]
+struct BvhArgs {
+    /// OBJ file: a path, or a name in `<shared>/data/meshes/` (repeatable).
+    #[arg(long)]
+    mesh: Vec<String>,
+    /// A generated hall scene (`10k` or `200k`); needs the scene generators
+    /// of `frusta_engine::scene`, not available yet.
+    #[arg(long, value_parser = ["10k", "200k"])]
+    hall: Option<String>,
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    json: bool,
+    /// Rays per set (the camera image is rounded to 8x8 tiles).
+    #[arg(long, default_value_t = 1 << 20)]
+    rays: usize,
+    /// Comma-separated implementations to run (default: all compiled in).
+    #[arg(long, value_delimiter = ',')]
+    only: Vec<String>,
+    /// Rayon threads (default: rayon's default, all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Timed builds (and refits: twice this many) per implementation; median.
+    #[arg(long, default_value_t = 3)]
+    build_runs: usize,
+    /// Timed passes per ray set; best.
+    #[arg(long, default_value_t = 3)]
+    trace_runs: usize,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Bvh(args) => match bvh(args) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
+    }
+}
+
+/// The meshes to run on: `--mesh` files, then `--hall`.
+fn meshes(args: &BvhArgs) -> Result<Vec<BenchMesh>, String> {
+    let mut out = Vec::new();
+    for m in &args.mesh {
+        out.push(mesh::load_obj(&mesh::resolve(m))?);
+    }
+    if let Some(size) = &args.hall {
+        // Place for the hall generator of `frusta_engine::scene` (written
+        // elsewhere): build the hall, flatten it into one TriangleMesh and
+        // push BenchMesh { name: format!("hall-{size}"), mesh }.
+        return Err(format!(
+            "--hall {size}: the hall generator (frusta_engine::scene) is not available yet"
+        ));
+    }
+    if out.is_empty() {
+        return Err("give --mesh PATH (or --hall)".into());
+    }
+    Ok(out)
+}
+
+fn bvh(args: BvhArgs) -> Result<(), String> {
+    if let Some(t) = args.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build_global()
+            .map_err(|e| e.to_string())?;
+    }
+    let threads = rayon::current_num_threads();
+    let selected: Vec<&str> = IMPLS
+        .iter()
+        .copied()
+        .filter(|i| args.only.is_empty() || args.only.iter().any(|o| o == i))
+        .collect();
+    for o in &args.only {
+        if !IMPLS.contains(&o.as_str()) {
+            return Err(format!("unknown implementation {o:?}; known: {IMPLS:?}"));
+        }
+    }
+
+    let mut reports = Vec::new();
+    for m in meshes(&args)? {
+        let bounds = m.mesh.bounds();
+        let (w, h) = rays::camera_size(args.rays);
+        let coherent = rays::coherent(&bounds, w, h);
+        let incoherent = rays::incoherent(&bounds, coherent.len(), 0x5EED_F00D);
+        let mut input = Input {
+            mesh: &m,
+            coherent: &coherent,
+            incoherent: &incoherent,
+            reference: None,
+            build_runs: args.build_runs,
+            trace_runs: args.trace_runs,
+        };
+        // Ours first: its closest hits are the reference for the others.
+        let ours = bvh_bench::run_named("frusta", &input).expect("frusta is always built");
+        input.reference = Some(&ours.distances);
+        let mut results = Vec::new();
+        if selected.contains(&"frusta") {
+            results.push(ours.result.clone());
+        }
+        for name in selected.iter().filter(|&&n| n != "frusta") {
+            eprintln!("[{}] {name}...", m.name);
+            match bvh_bench::run_named(name, &input) {
+                Some(r) => {
+                    if r.result.mismatch_fraction > 1e-4 {
+                        eprintln!(
+                            "warning: {name} on {}: {:.3}% of closest hits differ from ours",
+                            m.name,
+                            100.0 * r.result.mismatch_fraction
+                        );
+                    }
+                    results.push(r.result);
+                }
+                None => eprintln!("note: {name} not compiled in (feature `embree`)"),
+            }
+        }
+        reports.push(MeshReport {
+            mesh: m.name.clone(),
+            triangles: m.mesh.triangle_count(),
+            threads,
+            rays: coherent.len(),
+            results,
+        });
+        if !args.json {
+            println!("{}", report::table(reports.last().unwrap()));
+        }
+    }
+    if args.json {
+        let json = if reports.len() == 1 {
+            serde_json::to_string(&reports[0])
+        } else {
+            serde_json::to_string(&serde_json::json!({ "meshes": reports }))
+        };
+        println!("{}", json.map_err(|e| e.to_string())?);
+    }
+    Ok(())
+}
