@@ -5,7 +5,6 @@
 //! subcommands (`propagation`, `serve`) will join [`Command`].
 
 mod bvh_bench;
-mod frusta_impl;
 mod mesh;
 mod rays;
 mod report;

@@ -1,15 +1,14 @@
-//! Ours: `frusta_engine::bvh::MeshBvh` with the default (SAH) options,
-//! through the shim in `crate::frusta_impl`.
+//! Ours: `frusta_engine::bvh::MeshBvh` with the default (SAH) options.
 
+use frusta_engine::bvh::{BuildOptions, MeshBvh};
 use frusta_engine::geometry::{Ray, TriangleMesh};
 use glam::Vec3;
 
 use super::Accel;
-use crate::frusta_impl as fi;
 use crate::mesh::BenchMesh;
 
 pub struct Frusta {
-    bvh: fi::Bvh,
+    bvh: MeshBvh,
 }
 
 impl Accel for Frusta {
@@ -24,7 +23,7 @@ impl Accel for Frusta {
 
     fn build(mesh: TriangleMesh) -> Self {
         Self {
-            bvh: fi::build(&mesh),
+            bvh: MeshBvh::build(&mesh, &BuildOptions::default()),
         }
     }
 
@@ -34,12 +33,12 @@ impl Accel for Frusta {
 
     #[inline]
     fn closest(&self, ray: &Ray) -> Option<f32> {
-        fi::closest_t(&self.bvh, ray)
+        self.bvh.closest_hit(ray).map(|h| h.t)
     }
 
     #[inline]
     fn any(&self, ray: &Ray) -> bool {
-        fi::any_hit(&self.bvh, ray)
+        self.bvh.any_hit(ray)
     }
 
     fn prepare_refit(&self, mesh: &BenchMesh, positions: &[Vec3]) -> Option<TriangleMesh> {
@@ -49,17 +48,17 @@ impl Accel for Frusta {
     }
 
     fn refit(&mut self, mesh: &TriangleMesh) {
-        std::hint::black_box(fi::refit(&mut self.bvh, mesh));
+        std::hint::black_box(self.bvh.refit(mesh).ok());
     }
 
-    /// The engine's own `sah_cost()`, assumed to use the same formula
-    /// (`C_t = C_i = 1`, normalised by the root's area).
+    /// The engine's own `sah_cost()`: the same formula (`C_t = C_i = 1`,
+    /// normalised by the root's area).
     fn sah_cost(&self) -> Option<f64> {
-        Some(fi::sah_cost(&self.bvh) as f64)
+        Some(self.bvh.sah_cost() as f64)
     }
 
     /// The engine's own `memory_bytes()` (nodes, index and triangle data).
     fn memory_bytes(&self) -> usize {
-        fi::memory_bytes(&self.bvh)
+        self.bvh.memory_bytes()
     }
 }

@@ -81,7 +81,7 @@ pub fn sah_cost(nodes: &[Node], traversal_cost: f32) -> f32 {
         return 0.0;
     };
     let root_area = root.aabb().half_area();
-    if !(root_area > 0.0) {
+    if root_area.is_nan() || root_area <= 0.0 {
         return nodes.iter().map(|n| n.count() as f32).sum();
     }
     let total: f64 = nodes

@@ -60,7 +60,7 @@ pub(super) fn split(ctx: &Context, prims: &mut [u32], scratch: &mut Scratch) -> 
     let (bounds, centroid_bounds) = range_bounds(ctx, prims, parallel);
     let extent = centroid_bounds.extent();
     let parent_area = bounds.half_area();
-    if !(parent_area > 0.0) || extent.max_element() <= 0.0 {
+    if parent_area.is_nan() || parent_area <= 0.0 || extent.max_element() <= 0.0 {
         return Split::Leaf;
     }
     // Few primitives need few bins; clearing and sweeping them is the
