@@ -8,19 +8,21 @@ use frusta_engine::bvh::{MeshBvh, UpdateAction, DEFAULT_REBUILD_THRESHOLD};
 use frusta_engine::geometry::{shapes, Aabb, Ray, TriangleMesh};
 use glam::{Quat, Vec3};
 
-/// Every node's box contains its children's boxes, or its triangles.
+/// Every slot's box contains its child's slots, or its triangles.
 fn assert_boxes_contain_geometry(bvh: &MeshBvh, mesh: &TriangleMesh) {
-    let tree = bvh.bvh();
-    for node in tree.nodes() {
-        let b = node.aabb();
-        if node.is_leaf() {
-            for slot in node.first()..node.first() + node.count() {
-                let [p, q, r] = mesh.corners(tree.prim_ids()[slot as usize] as usize);
-                assert!(b.contains(&Aabb::of_triangle(p, q, r)));
+    let nodes = bvh.wide().nodes();
+    for node in nodes {
+        for slot in 0..4 {
+            let b = node.slot_aabb(slot);
+            if node.is_leaf_slot(slot) {
+                let (first, count) = (node.child[slot], node.count[slot]);
+                for leaf_slot in first..first + count {
+                    let [p, q, r] = mesh.corners(bvh.prim_ids()[leaf_slot as usize] as usize);
+                    assert!(b.contains(&Aabb::of_triangle(p, q, r)));
+                }
+            } else if node.is_inner_slot(slot) {
+                assert!(b.contains(&nodes[node.child[slot] as usize].aabb()));
             }
-        } else {
-            let l = node.first() as usize;
-            assert!(b.contains(&tree.nodes()[l].aabb()) && b.contains(&tree.nodes()[l + 1].aabb()));
         }
     }
 }

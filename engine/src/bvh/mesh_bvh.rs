@@ -7,9 +7,9 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::refit::{refit_nodes, DEFAULT_REBUILD_THRESHOLD};
-use super::traverse::RayBoxTest;
-use super::{quality, BuildOptions, Bvh};
+use super::refit::DEFAULT_REBUILD_THRESHOLD;
+use super::wide::{Bvh4, WideRay};
+use super::{BuildOptions, Bvh};
 use crate::geometry::{Aabb, Ray, TriangleMesh, WatertightRay};
 use crate::{Error, Result};
 
@@ -56,9 +56,11 @@ pub struct UpdateReport {
 /// A BVH over one triangle mesh.
 #[derive(Clone, Debug)]
 pub struct MeshBvh {
-    bvh: Bvh,
-    /// Triangle corners in leaf order: `triangles[i]` is mesh triangle
-    /// `bvh.prim_ids[i]`. 48 bytes each, aligned for SIMD loads.
+    bvh: Bvh4,
+    /// Leaf order to mesh order: leaf slot `i` holds triangle `prim_ids[i]`.
+    prim_ids: Vec<u32>,
+    /// Triangle corners in leaf order, so a leaf's triangles are contiguous.
+    /// 48 bytes each, aligned for SIMD loads.
     triangles: Vec<[Vec3A; 3]>,
     options: BuildOptions,
 }
@@ -75,22 +77,33 @@ impl MeshBvh {
                 Aabb::of_triangle(a, b, c)
             })
             .collect();
-        let bvh = Bvh::build(&boxes, options);
-        let triangles = bvh
-            .prim_ids
+        let Bvh { nodes, prim_ids } = Bvh::build(&boxes, options);
+        let triangles: Vec<[Vec3A; 3]> = prim_ids
             .par_iter()
             .with_min_len(4096)
             .map(|&t| mesh.corners(t as usize))
             .collect();
+        let mut bvh = Bvh4::from_binary(&Bvh {
+            nodes,
+            prim_ids: Vec::new(),
+        });
+        bvh.record_build_ratios(|f, c| leaf_area_sum(&triangles, f, c));
         Self {
             bvh,
+            prim_ids,
             triangles,
             options: options.clone(),
         }
     }
 
-    pub fn bvh(&self) -> &Bvh {
+    /// The 4-wide tree the mesh is traced with.
+    pub fn wide(&self) -> &Bvh4 {
         &self.bvh
+    }
+
+    /// Leaf order to mesh order.
+    pub fn prim_ids(&self) -> &[u32] {
+        &self.prim_ids
     }
 
     pub fn options(&self) -> &BuildOptions {
@@ -105,14 +118,17 @@ impl MeshBvh {
         self.bvh.bounds()
     }
 
-    /// SAH cost with unit traversal and intersection costs.
+    /// SAH cost of the traced (4-wide) tree, unit costs per node and per
+    /// triangle.
     pub fn sah_cost(&self) -> f32 {
-        quality::sah_cost(&self.bvh.nodes, 1.0)
+        self.bvh.sah_cost()
     }
 
-    /// Bytes held: nodes, leaf order, build ratios and triangle copies.
+    /// Bytes held: nodes, build ratios, leaf order and triangle copies.
     pub fn memory_bytes(&self) -> usize {
-        self.bvh.memory_bytes() + self.triangles.capacity() * std::mem::size_of::<[Vec3A; 3]>()
+        self.bvh.memory_bytes()
+            + self.prim_ids.capacity() * 4
+            + self.triangles.capacity() * std::mem::size_of::<[Vec3A; 3]>()
     }
 
     /// Refits to new vertex positions of the same mesh (same triangles).
@@ -126,23 +142,21 @@ impl MeshBvh {
                 mesh.triangle_count()
             )));
         }
-        let ids = &self.bvh.prim_ids;
+        let ids = &self.prim_ids;
         self.triangles
             .par_iter_mut()
             .with_min_len(4096)
             .zip(ids.par_iter())
             .for_each(|(tri, &t)| *tri = mesh.corners(t as usize));
         let triangles = &self.triangles;
-        refit_nodes(&mut self.bvh.nodes, |first, count| {
+        self.bvh.refit(|first, count| {
             triangles[first as usize..(first + count) as usize]
                 .iter()
                 .fold(Aabb::EMPTY, |b, [p, q, r]| {
                     b.union(Aabb::of_triangle(*p, *q, *r))
                 })
         });
-        let degradation = quality::degradation(&self.bvh.nodes, &self.bvh.build_ratios, |f, c| {
-            leaf_area_sum(triangles, f, c)
-        });
+        let degradation = self.bvh.degradation(|f, c| leaf_area_sum(triangles, f, c));
         Ok(RefitReport { degradation })
     }
 
@@ -187,7 +201,7 @@ impl MeshBvh {
         if !ray.is_valid() {
             return None;
         }
-        let boxes = RayBoxTest::new(ray);
+        let boxes = WideRay::new(ray);
         let tri_ray = WatertightRay::new(ray);
         let mut best = None;
         let t_min = ray.t_min;
@@ -206,7 +220,7 @@ impl MeshBvh {
             let [a, b, c] = self.triangles[slot as usize];
             MeshHit {
                 t: h.t,
-                triangle: self.bvh.prim_ids[slot as usize],
+                triangle: self.prim_ids[slot as usize],
                 u: h.u,
                 v: h.v,
                 normal: Vec3::from((b - a).cross(c - a).normalize_or_zero()),
@@ -220,7 +234,7 @@ impl MeshBvh {
         if !ray.is_valid() {
             return false;
         }
-        let boxes = RayBoxTest::new(ray);
+        let boxes = WideRay::new(ray);
         let tri_ray = WatertightRay::new(ray);
         let mut hit = false;
         let t_min = ray.t_min;
@@ -241,7 +255,7 @@ impl MeshBvh {
         if !ray.is_valid() {
             return;
         }
-        let boxes = RayBoxTest::new(ray);
+        let boxes = WideRay::new(ray);
         let tri_ray = WatertightRay::new(ray);
         let t_min = ray.t_min;
         self.bvh
@@ -249,7 +263,7 @@ impl MeshBvh {
                 for slot in first..first + count {
                     let [a, b, c] = self.triangles[slot as usize];
                     if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
-                        visit(self.bvh.prim_ids[slot as usize], h.t);
+                        visit(self.prim_ids[slot as usize], h.t);
                     }
                 }
                 false

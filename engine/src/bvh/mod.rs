@@ -6,7 +6,9 @@
 //! - [`refit`]: bottom-up box updates after geometry moves, with the rebuild
 //!   heuristic of Lauterbach's dissertation (section 4.1.5);
 //! - [`traverse`]: the robust ray/box test and ordered traversal;
-//! - [`quality`]: SAH cost and the per-node area ratios the heuristic uses.
+//! - [`quality`]: SAH cost;
+//! - [`wide`]: the 4-wide tree collapsed from a binary build, which meshes
+//!   are traced with, refitted and judged by the rebuild heuristic.
 
 pub mod build;
 mod mesh_bvh;
@@ -14,6 +16,7 @@ pub mod node;
 pub mod quality;
 pub mod refit;
 pub mod traverse;
+pub mod wide;
 
 pub use build::{BuildMethod, BuildOptions};
 pub use mesh_bvh::{MeshBvh, MeshHit, RefitReport, UpdateAction, UpdateReport};
@@ -30,8 +33,6 @@ pub struct Bvh {
     pub(crate) nodes: Vec<Node>,
     /// Leaf order to caller order: leaf slot `i` holds primitive `prim_ids[i]`.
     pub(crate) prim_ids: Vec<u32>,
-    /// Per node, the area ratio measured at build time (see [`quality`]).
-    pub(crate) build_ratios: Vec<f32>,
 }
 
 impl Bvh {
@@ -51,11 +52,9 @@ impl Bvh {
             .unwrap_or(crate::geometry::Aabb::EMPTY)
     }
 
-    /// Bytes held by the hierarchy itself (nodes, leaf order, build ratios).
+    /// Bytes held by the hierarchy itself (nodes and leaf order).
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node>()
-            + self.prim_ids.capacity() * 4
-            + self.build_ratios.capacity() * 4
+        self.nodes.capacity() * std::mem::size_of::<Node>() + self.prim_ids.capacity() * 4
     }
 
     /// Depth of the deepest leaf (the root has depth 0).

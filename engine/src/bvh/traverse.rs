@@ -7,13 +7,16 @@
 //! yields NaN only when the origin lies exactly on a plane; NaN lanes are
 //! then ignored, which keeps exactly the rays that run inside a face.
 
+use std::mem::MaybeUninit;
+
 use glam::{BVec3A, Vec3A};
 
 use super::{Bvh, Node};
 use crate::geometry::Ray;
 
 /// `1 + 2 * gamma(3)` with `gamma(n) = n * u / (1 - n * u)`, `u = 2^-24`.
-const EXIT_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub(crate) const EXIT_SCALE: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// Enough for the deepest tree the builders make (see `FORCE_MEDIAN_DEPTH`).
 pub const STACK_SIZE: usize = 96;
@@ -75,7 +78,8 @@ impl Bvh {
         if ray.entry(root, t_min, t_max).is_none() {
             return;
         }
-        let mut stack = [(0u32, 0.0f32); STACK_SIZE];
+        // Uninitialised: zeroing it would cost more than a shallow traversal.
+        let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
         let mut top = 0;
         let mut node = root;
         loop {
@@ -95,7 +99,7 @@ impl Bvh {
                         } else {
                             (b, first, ta)
                         };
-                        stack[top] = (far as u32, t_far);
+                        stack[top] = MaybeUninit::new((far as u32, t_far));
                         top += 1;
                         node = near;
                         continue;
@@ -117,7 +121,8 @@ impl Bvh {
                     return;
                 }
                 top -= 1;
-                let (index, t_enter) = stack[top];
+                // SAFETY: entries below the old `top` were written above.
+                let (index, t_enter) = unsafe { stack[top].assume_init() };
                 if t_enter <= t_max {
                     node = &nodes[index as usize];
                     break;

@@ -137,8 +137,8 @@ impl SceneBvh {
             .iter()
             .map(|i| ObjectStats {
                 triangles: i.bvh.triangle_count(),
-                nodes: i.bvh.bvh().nodes().len(),
-                depth: i.bvh.bvh().depth(),
+                nodes: i.bvh.wide().nodes().len(),
+                depth: i.bvh.wide().depth(),
                 sah_cost: i.bvh.sah_cost(),
                 memory_bytes: i.bvh.memory_bytes() + i.materials.capacity() * 2,
             })

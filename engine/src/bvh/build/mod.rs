@@ -12,7 +12,7 @@ mod morton;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{quality, refit, Bvh, Node};
+use super::{refit, Bvh, Node};
 use crate::geometry::Aabb;
 use binned_sah::Scratch;
 
@@ -151,17 +151,7 @@ impl Bvh {
                 .iter()
                 .fold(Aabb::EMPTY, |b, &p| b.union(boxes[p as usize]))
         });
-        let build_ratios = quality::area_ratios(&nodes, |first, count| {
-            prim_ids[first as usize..(first + count) as usize]
-                .iter()
-                .map(|&p| boxes[p as usize].half_area())
-                .sum()
-        });
-        Bvh {
-            nodes,
-            prim_ids,
-            build_ratios,
-        }
+        Bvh { nodes, prim_ids }
     }
 }
 

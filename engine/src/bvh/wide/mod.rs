@@ -1,0 +1,204 @@
+//! The 4-wide BVH that meshes are traced with, collapsed from a binary
+//! build (see [`super::build`]).
+//!
+//! A binary tree tests one box per step; a 4-wide tree tests four with one
+//! SIMD instruction per slab and has about a third of the nodes, so
+//! incoherent rays take far fewer dependent loads. The binary tree stays the
+//! build intermediate and the top level of scenes, where nodes are few.
+
+mod refit;
+mod traverse;
+
+use glam::Vec4;
+
+pub use traverse::WideRay;
+
+use super::{Bvh, Node};
+use crate::geometry::Aabb;
+
+/// Four child boxes in structure-of-arrays form, their links and counts.
+///
+/// 128 bytes, two cache lines: six `Vec4` hold the minima and maxima of the
+/// four boxes per axis, so the slab test for all four children is six
+/// subtractions and multiplies on whole registers. A slot is a leaf when
+/// its count is non-zero (`child` is then its first leaf slot), an inner
+/// node when its count is zero, and empty when its box is empty (never hit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct Node4 {
+    pub(crate) lo: [Vec4; 3],
+    pub(crate) hi: [Vec4; 3],
+    /// First leaf slot (leaf) or child node (inner); `u32::MAX` when empty.
+    pub child: [u32; 4],
+    /// Primitives in a leaf slot; 0 for inner and empty slots.
+    pub count: [u32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<Node4>() == 128);
+
+const EMPTY_NODE: Node4 = Node4 {
+    lo: [Vec4::INFINITY; 3],
+    hi: [Vec4::NEG_INFINITY; 3],
+    child: [u32::MAX; 4],
+    count: [0; 4],
+};
+
+impl Node4 {
+    pub fn slot_aabb(&self, slot: usize) -> Aabb {
+        Aabb::new(
+            glam::Vec3A::new(self.lo[0][slot], self.lo[1][slot], self.lo[2][slot]),
+            glam::Vec3A::new(self.hi[0][slot], self.hi[1][slot], self.hi[2][slot]),
+        )
+    }
+
+    pub(crate) fn set_slot_aabb(&mut self, slot: usize, b: Aabb) {
+        for axis in 0..3 {
+            self.lo[axis][slot] = b.min[axis];
+            self.hi[axis][slot] = b.max[axis];
+        }
+    }
+
+    /// The union of the four slots: this node's own box.
+    pub fn aabb(&self) -> Aabb {
+        (0..4).fold(Aabb::EMPTY, |b, s| b.union(self.slot_aabb(s)))
+    }
+
+    pub fn is_leaf_slot(&self, slot: usize) -> bool {
+        self.count[slot] != 0
+    }
+
+    pub fn is_inner_slot(&self, slot: usize) -> bool {
+        self.count[slot] == 0 && self.child[slot] != u32::MAX
+    }
+
+    /// Leaf slots as `(first, count)`.
+    pub fn leaves(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        (0..4)
+            .filter(|&s| self.is_leaf_slot(s))
+            .map(|s| (self.child[s], self.count[s]))
+    }
+
+    /// Inner children.
+    pub fn inner_children(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..4)
+            .filter(|&s| self.is_inner_slot(s))
+            .map(|s| self.child[s] as usize)
+    }
+}
+
+/// A 4-wide BVH; leaf slots index the same primitive order as the binary
+/// tree it was collapsed from. Children come after their parent.
+#[derive(Clone, Debug, Default)]
+pub struct Bvh4 {
+    pub(crate) nodes: Vec<Node4>,
+    /// Area ratios at build time: per node, its own ratio then one per slot
+    /// (see [`super::quality`]).
+    pub(crate) build_ratios: Vec<[f32; 5]>,
+}
+
+impl Bvh4 {
+    /// Collapses a binary tree: each wide node takes the two children of a
+    /// binary node and keeps opening the largest inner child until it holds
+    /// four, which keeps the SAH order of the splits.
+    pub fn from_binary(bin: &Bvh) -> Self {
+        let mut nodes = Vec::with_capacity(bin.nodes.len() / 3 + 1);
+        if let Some(root) = bin.nodes.first() {
+            if root.is_leaf() {
+                let mut n = EMPTY_NODE;
+                n.set_slot_aabb(0, root.aabb());
+                n.child[0] = root.first();
+                n.count[0] = root.count();
+                nodes.push(n);
+            } else {
+                collapse(&bin.nodes, 0, &mut nodes);
+            }
+        }
+        let mut wide = Self {
+            nodes,
+            build_ratios: Vec::new(),
+        };
+        wide.build_ratios = vec![[1.0; 5]; wide.nodes.len()];
+        wide
+    }
+
+    pub fn nodes(&self) -> &[Node4] {
+        &self.nodes
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.nodes.first().map(Node4::aabb).unwrap_or(Aabb::EMPTY)
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<Node4>() + self.build_ratios.capacity() * 20
+    }
+
+    /// Depth of the deepest wide node (the root has depth 0).
+    pub fn depth(&self) -> usize {
+        let mut depth = vec![0usize; self.nodes.len()];
+        for (i, n) in self.nodes.iter().enumerate() {
+            for c in n.inner_children() {
+                depth[c] = depth[i] + 1;
+            }
+        }
+        depth.into_iter().max().unwrap_or(0)
+    }
+
+    /// SAH cost of the wide tree, as [`super::quality::sah_cost`] defines it
+    /// for binary trees: unit cost per node visited and per primitive tested.
+    pub fn sah_cost(&self) -> f32 {
+        let root = self.bounds().half_area();
+        if root.is_nan() || root <= 0.0 {
+            return 0.0;
+        }
+        let total: f64 = self
+            .nodes
+            .iter()
+            .map(|n| {
+                let leaves: f64 = (0..4)
+                    .filter(|&s| n.is_leaf_slot(s))
+                    .map(|s| n.slot_aabb(s).half_area() as f64 * n.count[s] as f64)
+                    .sum();
+                n.aabb().half_area() as f64 + leaves
+            })
+            .sum();
+        (total / root as f64) as f32
+    }
+}
+
+/// Emits the wide node for binary inner node `b` and, recursively, its
+/// inner children; returns its index.
+fn collapse(bin: &[Node], b: usize, out: &mut Vec<Node4>) -> u32 {
+    let first = bin[b].first() as usize;
+    let mut kids: Vec<usize> = vec![first, first + 1];
+    while kids.len() < 4 {
+        let widest = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| !bin[k].is_leaf())
+            .max_by(|x, y| {
+                bin[*x.1]
+                    .aabb()
+                    .half_area()
+                    .total_cmp(&bin[*y.1].aabb().half_area())
+            });
+        let Some((i, &k)) = widest else { break };
+        let f = bin[k].first() as usize;
+        kids[i] = f;
+        kids.push(f + 1);
+    }
+    let index = out.len();
+    out.push(EMPTY_NODE);
+    let mut node = EMPTY_NODE;
+    for (slot, &k) in kids.iter().enumerate() {
+        node.set_slot_aabb(slot, bin[k].aabb());
+        if bin[k].is_leaf() {
+            node.child[slot] = bin[k].first();
+            node.count[slot] = bin[k].count();
+        } else {
+            node.child[slot] = collapse(bin, k, out);
+        }
+    }
+    out[index] = node;
+    index as u32
+}

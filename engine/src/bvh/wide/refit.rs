@@ -1,0 +1,106 @@
+//! Refit and the rebuild heuristic's area ratios on the wide tree.
+//!
+//! The dissertation (section 4.1.5) measures, for each inner node, its area
+//! over the sum of its children's areas: a node whose children drift apart
+//! grows while they do not, so the ratio rises. It uses one primitive per
+//! leaf; our leaves hold several, so a leaf's ratio is its area over the sum
+//! of its primitives' box areas, which is what the nodes above it would
+//! measure. Leaves with one primitive always measure 1 and are left out.
+
+use rayon::prelude::*;
+
+use super::{Bvh4, Node4};
+use crate::geometry::Aabb;
+
+/// Below this many nodes the leaf pass runs on one thread.
+const PARALLEL_NODES: usize = 4 * 1024;
+
+/// Ratio of a box area to the sum of the areas it bounds; 1 when both are 0.
+#[inline]
+fn ratio(area: f32, parts: f32) -> f32 {
+    if parts > 0.0 {
+        (area / parts).min(1e6)
+    } else if area > 0.0 {
+        1e6
+    } else {
+        1.0
+    }
+}
+
+impl Bvh4 {
+    /// Recomputes every box: leaf slots from `leaf_bounds(first, count)`,
+    /// inner slots as the union of their child's slots, in one reverse sweep
+    /// (children come after their parent).
+    pub(crate) fn refit(&mut self, leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync) {
+        let leaves = |n: &mut Node4| {
+            for s in 0..4 {
+                if n.is_leaf_slot(s) {
+                    n.set_slot_aabb(s, leaf_bounds(n.child[s], n.count[s]));
+                }
+            }
+        };
+        if self.nodes.len() >= PARALLEL_NODES {
+            self.nodes.par_iter_mut().with_min_len(256).for_each(leaves);
+        } else {
+            self.nodes.iter_mut().for_each(leaves);
+        }
+        for i in (0..self.nodes.len()).rev() {
+            for s in 0..4 {
+                if self.nodes[i].is_inner_slot(s) {
+                    let b = self.nodes[self.nodes[i].child[s] as usize].aabb();
+                    self.nodes[i].set_slot_aabb(s, b);
+                }
+            }
+        }
+    }
+
+    /// Area ratios of a node and of its leaf slots: the node's box over the
+    /// sum of its slots' boxes, and a leaf's box over the sum of its
+    /// primitives' boxes (`leaf_area_sum`). Inner and empty slots read 1.
+    fn ratios(n: &Node4, leaf_area_sum: &impl Fn(u32, u32) -> f32) -> [f32; 5] {
+        let mut r = [1.0; 5];
+        let parts: f32 = (0..4).map(|s| n.slot_aabb(s).half_area()).sum();
+        r[0] = ratio(n.aabb().half_area(), parts);
+        for s in 0..4 {
+            if n.is_leaf_slot(s) && n.count[s] > 1 {
+                r[s + 1] = ratio(
+                    n.slot_aabb(s).half_area(),
+                    leaf_area_sum(n.child[s], n.count[s]),
+                );
+            }
+        }
+        r
+    }
+
+    /// Records the current ratios as the build-time reference.
+    pub(crate) fn record_build_ratios(&mut self, leaf_area_sum: impl Fn(u32, u32) -> f32) {
+        self.build_ratios = self
+            .nodes
+            .iter()
+            .map(|n| Self::ratios(n, &leaf_area_sum))
+            .collect();
+    }
+
+    /// The rebuild heuristic (dissertation, section 4.1.5): the mean growth
+    /// of the area ratios since the build, over nodes and leaves with
+    /// several primitives. 0 under translation; large when neighbours part.
+    pub(crate) fn degradation(&self, leaf_area_sum: impl Fn(u32, u32) -> f32) -> f32 {
+        let (mut sum, mut count) = (0.0f64, 0usize);
+        for (n, built) in self.nodes.iter().zip(&self.build_ratios) {
+            let now = Self::ratios(n, &leaf_area_sum);
+            sum += (now[0] - built[0]) as f64;
+            count += 1;
+            for s in 0..4 {
+                if n.is_leaf_slot(s) && n.count[s] > 1 {
+                    sum += (now[s + 1] - built[s + 1]) as f64;
+                    count += 1;
+                }
+            }
+        }
+        if count == 0 {
+            0.0
+        } else {
+            (sum / count as f64) as f32
+        }
+    }
+}
