@@ -9,6 +9,7 @@ mod mesh;
 mod rays;
 mod report;
 
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -33,13 +34,13 @@ enum Command {
 
 #[derive(clap::Args)]
 struct BvhArgs {
-    /// OBJ file: a path, or a name in `<shared>/data/meshes/` (repeatable).
+    /// Mesh or scene file (OBJ, glTF or scene JSON, flattened to one mesh):
+    /// a path, or a name in `<shared>/data/meshes/` (repeatable).
     #[arg(long)]
     mesh: Vec<String>,
-    /// A generated hall scene (`10k` or `200k`); needs the scene generators
-    /// of `frusta_engine::scene`, not available yet.
+    /// A bundled hall scene, `scenes/hall-<SIZE>.json` (repeatable).
     #[arg(long, value_parser = ["10k", "200k"])]
-    hall: Option<String>,
+    hall: Vec<String>,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     json: bool,
@@ -73,24 +74,23 @@ fn main() -> ExitCode {
     }
 }
 
-/// The meshes to run on: `--mesh` files, then `--hall`.
+/// The meshes to run on: `--mesh` files, then `--hall` scenes.
 fn meshes(args: &BvhArgs) -> Result<Vec<BenchMesh>, String> {
-    let mut out = Vec::new();
-    for m in &args.mesh {
-        out.push(mesh::load_obj(&mesh::resolve(m))?);
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let halls = args
+        .hall
+        .iter()
+        .map(|size| scenes.join(format!("hall-{size}.json")));
+    let paths: Vec<PathBuf> = args
+        .mesh
+        .iter()
+        .map(|m| mesh::resolve(m))
+        .chain(halls)
+        .collect();
+    if paths.is_empty() {
+        return Err("give --mesh PATH or --hall SIZE".into());
     }
-    if let Some(size) = &args.hall {
-        // Place for the hall generator of `frusta_engine::scene` (written
-        // elsewhere): build the hall, flatten it into one TriangleMesh and
-        // push BenchMesh { name: format!("hall-{size}"), mesh }.
-        return Err(format!(
-            "--hall {size}: the hall generator (frusta_engine::scene) is not available yet"
-        ));
-    }
-    if out.is_empty() {
-        return Err("give --mesh PATH (or --hall)".into());
-    }
-    Ok(out)
+    paths.iter().map(|p| mesh::load(p)).collect()
 }
 
 fn bvh(args: BvhArgs) -> Result<(), String> {

@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use frusta_engine::geometry::TriangleMesh;
+use frusta_engine::scene::Scene;
 use glam::Vec3;
 
 /// A mesh under test: its name (file stem) and the validated engine mesh.
@@ -60,35 +61,13 @@ pub fn resolve(arg: &str) -> PathBuf {
     dir.join(format!("{arg}.obj"))
 }
 
-/// Loads every model of an OBJ file into one triangle mesh.
-pub fn load_obj(path: &Path) -> Result<BenchMesh, String> {
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let (models, _) =
-        tobj::load_obj(path, &opts).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    for m in &models {
-        let base = positions.len() as u32;
-        positions.extend(
-            m.mesh
-                .positions
-                .chunks_exact(3)
-                .map(|p| Vec3::new(p[0], p[1], p[2])),
-        );
-        triangles.extend(
-            m.mesh
-                .indices
-                .chunks_exact(3)
-                .map(|t| [base + t[0], base + t[1], base + t[2]]),
-        );
-    }
-    let mesh =
-        TriangleMesh::new(positions, triangles).map_err(|e| format!("{}: {e}", path.display()))?;
+/// Loads an OBJ, glTF or JSON scene file and flattens it into one
+/// world-space mesh.
+pub fn load(path: &Path) -> Result<BenchMesh, String> {
+    let scene = Scene::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mesh = scene
+        .world_mesh()
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     let name = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
