@@ -59,3 +59,27 @@ pub fn load_dir(dir: &Path) -> std::io::Result<Catalog> {
     }
     Ok(catalog)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_broken_scene_is_skipped_not_fatal() {
+        let dir = std::env::temp_dir().join(format!("frusta-catalog-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let shoebox = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/shoebox.json");
+        std::fs::copy(shoebox, dir.join("good.json")).expect("copy scene");
+        std::fs::write(dir.join("broken.json"), "{ not json").expect("write");
+        std::fs::write(dir.join("notes.txt"), "ignored").expect("write");
+        let catalog = load_dir(&dir);
+        std::fs::remove_dir_all(&dir).expect("clean up");
+        let ids: Vec<_> = catalog.expect("readable dir").into_keys().collect();
+        assert_eq!(ids, ["good"]);
+    }
+
+    #[test]
+    fn a_missing_directory_is_an_error() {
+        assert!(load_dir(Path::new("/no/such/frusta/scenes")).is_err());
+    }
+}
