@@ -1,1 +1,80 @@
-fn main() {}
+//! `frusta`: offline tools for inspecting scenes and tracing single rays,
+//! without running the service.
+
+mod info;
+mod trace;
+mod vec3;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use glam::Vec3;
+
+#[derive(Parser)]
+#[command(
+    name = "frusta",
+    version,
+    about = "Inspect frusta scenes and trace rays"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Scene commands.
+    Scene {
+        #[command(subcommand)]
+        command: SceneCommand,
+    },
+    /// Trace one ray and print its closest hit.
+    Trace {
+        /// Scene file (`.json`, `.obj`, `.gltf`, `.glb`).
+        #[arg(long)]
+        scene: PathBuf,
+        /// Ray origin as `X,Y,Z`.
+        #[arg(long, value_parser = vec3::parse, allow_hyphen_values = true)]
+        origin: Vec3,
+        /// Ray direction as `X,Y,Z`; normalised, so `t` is a distance.
+        #[arg(long, value_parser = vec3::parse, allow_hyphen_values = true)]
+        direction: Vec3,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Subcommand)]
+enum SceneCommand {
+    /// Load a scene, build its BVH, and print what it holds.
+    Info {
+        /// Scene file (`.json`, `.obj`, `.gltf`, `.glb`).
+        path: PathBuf,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let result = match Cli::parse().command {
+        Command::Scene {
+            command: SceneCommand::Info { path, json },
+        } => info::run(&path, json),
+        Command::Trace {
+            scene,
+            origin,
+            direction,
+            json,
+        } => trace::run(&scene, origin, direction, json),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,237 @@
+//! Batched ray queries against one scene. Directions are normalised, so
+//! `t` and `max_distance` are distances in scene units (metres).
+
+use axum::extract::{Path, State};
+use axum::Json;
+use frusta_engine::geometry::Ray;
+use frusta_engine::query::SceneHit;
+use frusta_engine::scene::Scene;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use crate::app::AppState;
+use crate::error::{ApiError, JsonBody};
+
+/// Upper bound on rays per request, so one request cannot monopolise the
+/// blocking pool or memory.
+pub const MAX_RAYS: usize = 100_000;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RaysRequest {
+    rays: Vec<RayInput>,
+    #[serde(default)]
+    mode: Mode,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RayInput {
+    origin: [f32; 3],
+    direction: [f32; 3],
+    max_distance: Option<f32>,
+}
+
+#[derive(Clone, Copy, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum Mode {
+    /// Nearest hit per ray, for reflections and distances.
+    #[default]
+    Closest,
+    /// Whether anything blocks the ray, for visibility; cheaper.
+    Any,
+}
+
+/// Serialises as `{"hits": [...]}` or `{"occluded": [...]}`.
+#[derive(Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RaysResponse {
+    Hits(Vec<Option<HitOutput>>),
+    Occluded(Vec<bool>),
+}
+
+#[derive(Serialize)]
+pub struct HitOutput {
+    t: f32,
+    object: u32,
+    object_name: String,
+    triangle: u32,
+    point: [f32; 3],
+    normal: [f32; 3],
+    material: String,
+}
+
+impl HitOutput {
+    fn new(scene: &Scene, hit: &SceneHit) -> Self {
+        let name_of = |names: Option<&String>| names.cloned().unwrap_or_default();
+        Self {
+            t: hit.t,
+            object: hit.object,
+            object_name: name_of(scene.objects.get(hit.object as usize).map(|o| &o.name)),
+            triangle: hit.triangle,
+            point: hit.point.to_array(),
+            normal: hit.normal.to_array(),
+            material: name_of(scene.materials.get(hit.material as usize).map(|m| &m.name)),
+        }
+    }
+}
+
+impl RayInput {
+    /// The engine silently misses invalid rays; a client sending one has a
+    /// bug, so it is told which ray and why instead.
+    fn to_ray(&self, index: usize) -> Result<Ray, ApiError> {
+        let invalid = |reason| ApiError::InvalidRay { index, reason };
+        let origin = Vec3::from_array(self.origin);
+        if !origin.is_finite() {
+            return Err(invalid("origin must be finite"));
+        }
+        let direction = Vec3::from_array(self.direction)
+            .try_normalize()
+            .ok_or_else(|| invalid("direction must be finite and non-zero"))?;
+        let max_distance = match self.max_distance {
+            None => f32::INFINITY,
+            Some(d) if d > 0.0 && d.is_finite() => d,
+            Some(_) => return Err(invalid("max_distance must be finite and positive")),
+        };
+        Ok(Ray::new(origin, direction).with_range(0.0, max_distance))
+    }
+}
+
+pub async fn trace(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    JsonBody(request): JsonBody<RaysRequest>,
+) -> Result<Json<RaysResponse>, ApiError> {
+    let loaded = state.scene(&id)?;
+    if request.rays.len() > MAX_RAYS {
+        return Err(ApiError::TooManyRays {
+            count: request.rays.len(),
+            max: MAX_RAYS,
+        });
+    }
+    let rays = request
+        .rays
+        .iter()
+        .enumerate()
+        .map(|(i, r)| r.to_ray(i))
+        .collect::<Result<Vec<_>, _>>()?;
+    // Tracing is CPU-bound (and parallel inside the engine); keep it off
+    // the async workers so other requests stay responsive.
+    let response = tokio::task::spawn_blocking(move || match request.mode {
+        Mode::Closest => RaysResponse::Hits(
+            loaded
+                .bvh
+                .closest_hits(&rays)
+                .iter()
+                .map(|h| h.as_ref().map(|h| HitOutput::new(&loaded.scene, h)))
+                .collect(),
+        ),
+        Mode::Any => RaysResponse::Occluded(loaded.bvh.any_hits(&rays)),
+    })
+    .await
+    .map_err(|e| ApiError::Internal(e.to_string()))?;
+    Ok(Json(response))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::app::test_support::*;
+    use axum::http::StatusCode;
+    use serde_json::json;
+
+    const SHOEBOX_RAYS: &str = "/v1/scenes/shoebox/rays";
+
+    #[tokio::test]
+    async fn ray_from_inside_the_shoebox_hits_the_far_wall() {
+        // The room spans x in [0, 10]; from x = 2 along +x (unnormalised)
+        // the wall at x = 10 is 8 m away.
+        let body = r#"{"rays":[{"origin":[2,3,1.5],"direction":[5,0,0]}]}"#;
+        let (status, _, body) = send(post_json(SHOEBOX_RAYS, body)).await;
+        assert_eq!(status, StatusCode::OK);
+        let hit = &body["hits"][0];
+        assert!((hit["t"].as_f64().expect("t") - 8.0).abs() < 1e-4, "{hit}");
+        assert_eq!(hit["object_name"], "room");
+        assert_eq!(hit["material"], "walls");
+        assert!((hit["point"][0].as_f64().expect("x") - 10.0).abs() < 1e-4);
+        // Room surfaces face into the air, so back towards the origin.
+        assert!((hit["normal"][0].as_f64().expect("nx") + 1.0).abs() < 1e-4);
+    }
+
+    #[tokio::test]
+    async fn max_distance_and_any_mode() {
+        let body = json!({
+            "mode": "any",
+            "rays": [
+                { "origin": [2, 3, 1.5], "direction": [1, 0, 0], "max_distance": 5 },
+                { "origin": [2, 3, 1.5], "direction": [1, 0, 0], "max_distance": 9 },
+            ]
+        });
+        let (status, _, body) = send(post_json(SHOEBOX_RAYS, &body.to_string())).await;
+        assert_eq!(status, StatusCode::OK);
+        assert_eq!(body, json!({ "occluded": [false, true] }));
+    }
+
+    #[tokio::test]
+    async fn a_miss_is_null() {
+        let body = r#"{"rays":[{"origin":[20,3,1.5],"direction":[1,0,0]}]}"#;
+        let (status, _, body) = send(post_json(SHOEBOX_RAYS, body)).await;
+        assert_eq!(status, StatusCode::OK);
+        assert_eq!(body, json!({ "hits": [null] }));
+    }
+
+    #[tokio::test]
+    async fn zero_direction_is_rejected_with_its_index() {
+        let body = json!({ "rays": [
+            { "origin": [1, 1, 1], "direction": [1, 0, 0] },
+            { "origin": [1, 1, 1], "direction": [0, 0, 0] },
+        ]});
+        let (status, content_type, body) = send(post_json(SHOEBOX_RAYS, &body.to_string())).await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+        assert_eq!(content_type, "application/problem+json");
+        assert_eq!(body["ray_index"], 1);
+        assert_eq!(body["status"], 422);
+    }
+
+    #[tokio::test]
+    async fn overflowing_direction_is_rejected() {
+        // 1e300 fits in JSON but is infinite as f32.
+        let body = r#"{"rays":[{"origin":[1,1,1],"direction":[1e300,0,0]}]}"#;
+        let (status, _, body) = send(post_json(SHOEBOX_RAYS, body)).await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+        assert_eq!(body["ray_index"], 0);
+    }
+
+    #[tokio::test]
+    async fn malformed_json_is_a_400_problem() {
+        let (status, content_type, body) = send(post_json(SHOEBOX_RAYS, "{\"rays\": [")).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST);
+        assert_eq!(content_type, "application/problem+json");
+        assert_eq!(body["type"], "urn:frusta:problem:bad-body");
+    }
+
+    #[tokio::test]
+    async fn wrong_shape_is_a_422_problem() {
+        let body = r#"{"rays":[{"origin":[1,1],"direction":[1,0,0]}]}"#;
+        let (status, content_type, _) = send(post_json(SHOEBOX_RAYS, body)).await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+        assert_eq!(content_type, "application/problem+json");
+    }
+
+    #[tokio::test]
+    async fn too_many_rays_is_a_413_problem() {
+        let ray = r#"{"origin":[1,1,1],"direction":[1,0,0]}"#;
+        let rays = vec![ray; super::MAX_RAYS + 1].join(",");
+        let body = format!(r#"{{"rays":[{rays}]}}"#);
+        let (status, content_type, body) = send(post_json(SHOEBOX_RAYS, &body)).await;
+        assert_eq!(status, StatusCode::PAYLOAD_TOO_LARGE);
+        assert_eq!(content_type, "application/problem+json");
+        assert_eq!(body["type"], "urn:frusta:problem:too-many-rays");
+    }
+
+    #[tokio::test]
+    async fn rays_into_an_unknown_scene_are_a_404() {
+        let body = r#"{"rays":[]}"#;
+        let (status, _, _) = send(post_json("/v1/scenes/atlantis/rays", body)).await;
+        assert_eq!(status, StatusCode::NOT_FOUND);
+    }
+}
