@@ -10,7 +10,7 @@ use serde::Serialize;
 use super::refit::DEFAULT_REBUILD_THRESHOLD;
 use super::wide::{Bvh4, WideRay};
 use super::{BuildOptions, Bvh};
-use crate::geometry::{Aabb, Ray, TriangleMesh, WatertightRay};
+use crate::geometry::{trace_batch, Aabb, Ray, TriangleHit, TriangleMesh, WatertightRay};
 use crate::{Error, Result};
 
 /// A ray's nearest hit on a mesh.
@@ -194,28 +194,41 @@ impl MeshBvh {
         self.update(mesh, DEFAULT_REBUILD_THRESHOLD)
     }
 
-    /// The nearest hit within the ray's range. Invalid rays (non-finite or
-    /// zero direction) hit nothing.
-    #[inline]
-    pub fn closest_hit(&self, ray: &Ray) -> Option<MeshHit> {
+    /// Traces `ray` and calls `on_hit(slot, hit, t_max)` for every triangle
+    /// it meets within the current range; `on_hit` may shrink `t_max` and
+    /// returns `true` to stop. Invalid rays (non-finite or zero direction)
+    /// meet nothing.
+    #[inline(always)]
+    fn walk(&self, ray: &Ray, mut on_hit: impl FnMut(u32, TriangleHit, &mut f32) -> bool) {
         if !ray.is_valid() {
-            return None;
+            return;
         }
         let boxes = WideRay::new(ray);
         let tri_ray = WatertightRay::new(ray);
-        let mut best = None;
         let t_min = ray.t_min;
         self.bvh
             .traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
-                for slot in first..first + count {
-                    let [a, b, c] = self.triangles[slot as usize];
-                    if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
-                        *t_max = h.t;
-                        best = Some((slot, h));
+                let leaf = &self.triangles[first as usize..(first + count) as usize];
+                for (i, [a, b, c]) in leaf.iter().enumerate() {
+                    if let Some(h) = tri_ray.intersect(*a, *b, *c, t_min, *t_max) {
+                        if on_hit(first + i as u32, h, t_max) {
+                            return true;
+                        }
                     }
                 }
                 false
             });
+    }
+
+    /// The nearest hit within the ray's range.
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray) -> Option<MeshHit> {
+        let mut best = None;
+        self.walk(ray, |slot, h, t_max| {
+            *t_max = h.t;
+            best = Some((slot, h));
+            false
+        });
         best.map(|(slot, h)| {
             let [a, b, c] = self.triangles[slot as usize];
             MeshHit {
@@ -231,20 +244,11 @@ impl MeshBvh {
     /// Whether anything lies on the ray within its range (occlusion).
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> bool {
-        if !ray.is_valid() {
-            return false;
-        }
-        let boxes = WideRay::new(ray);
-        let tri_ray = WatertightRay::new(ray);
         let mut hit = false;
-        let t_min = ray.t_min;
-        self.bvh
-            .traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
-                hit = self.triangles[first as usize..(first + count) as usize]
-                    .iter()
-                    .any(|[a, b, c]| tri_ray.intersect(*a, *b, *c, t_min, *t_max).is_some());
-                hit
-            });
+        self.walk(ray, |_, _, _| {
+            hit = true;
+            true
+        });
         hit
     }
 
@@ -252,38 +256,20 @@ impl MeshBvh {
     /// its range, in no particular order. A ray through a shared edge or
     /// vertex of a closed mesh reports exactly one of the triangles there.
     pub fn for_each_hit(&self, ray: &Ray, mut visit: impl FnMut(u32, f32)) {
-        if !ray.is_valid() {
-            return;
-        }
-        let boxes = WideRay::new(ray);
-        let tri_ray = WatertightRay::new(ray);
-        let t_min = ray.t_min;
-        self.bvh
-            .traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
-                for slot in first..first + count {
-                    let [a, b, c] = self.triangles[slot as usize];
-                    if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
-                        visit(self.prim_ids[slot as usize], h.t);
-                    }
-                }
-                false
-            });
+        self.walk(ray, |slot, h, _| {
+            visit(self.prim_ids[slot as usize], h.t);
+            false
+        });
     }
 
     /// [`closest_hit`](Self::closest_hit) for many rays, in parallel.
     pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<MeshHit>> {
-        rays.par_iter()
-            .with_min_len(256)
-            .map(|r| self.closest_hit(r))
-            .collect()
+        trace_batch(rays, |r| self.closest_hit(r))
     }
 
     /// [`any_hit`](Self::any_hit) for many rays, in parallel.
     pub fn any_hits(&self, rays: &[Ray]) -> Vec<bool> {
-        rays.par_iter()
-            .with_min_len(256)
-            .map(|r| self.any_hit(r))
-            .collect()
+        trace_batch(rays, |r| self.any_hit(r))
     }
 }
 

@@ -10,6 +10,6 @@ pub mod triangle;
 
 pub use aabb::Aabb;
 pub use mesh::{TriangleMesh, MAX_COORDINATE};
-pub use ray::Ray;
+pub use ray::{trace_batch, Ray};
 pub use transform::RigidTransform;
 pub use triangle::{TriangleHit, WatertightRay};

@@ -1,4 +1,5 @@
 use glam::{Vec3, Vec3A};
+use rayon::prelude::*;
 
 /// A ray `origin + t * dir` for `t` in `[t_min, t_max]`.
 ///
@@ -55,4 +56,10 @@ impl Ray {
             && !self.t_min.is_nan()
             && !self.t_max.is_nan()
     }
+}
+
+/// Answers a query for many rays in parallel, in chunks large enough that
+/// scheduling costs less than tracing.
+pub fn trace_batch<T: Send>(rays: &[Ray], query: impl Fn(&Ray) -> T + Sync + Send) -> Vec<T> {
+    rays.par_iter().with_min_len(256).map(query).collect()
 }

@@ -1,10 +1,9 @@
 use glam::Vec3;
-use rayon::prelude::*;
 
 use super::scene_bvh::{Instance, SceneBvh};
 use crate::bvh::traverse::RayBoxTest;
 use crate::bvh::MeshHit;
-use crate::geometry::Ray;
+use crate::geometry::{trace_batch, Ray};
 use crate::scene::MaterialId;
 
 /// A ray's nearest hit in a scene.
@@ -111,17 +110,11 @@ impl SceneBvh {
 
     /// [`closest_hit`](Self::closest_hit) for many rays, in parallel.
     pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<SceneHit>> {
-        rays.par_iter()
-            .with_min_len(256)
-            .map(|r| self.closest_hit(r))
-            .collect()
+        trace_batch(rays, |r| self.closest_hit(r))
     }
 
     /// [`any_hit`](Self::any_hit) for many rays, in parallel.
     pub fn any_hits(&self, rays: &[Ray]) -> Vec<bool> {
-        rays.par_iter()
-            .with_min_len(256)
-            .map(|r| self.any_hit(r))
-            .collect()
+        trace_batch(rays, |r| self.any_hit(r))
     }
 }

@@ -32,6 +32,33 @@ impl WideRay {
     }
 }
 
+/// Lane-wise `if x > acc { x } else { acc }`: NaN lanes of `x` keep `acc`.
+/// On x86-64 this is exactly `maxps(x, acc)`, one instruction.
+#[inline(always)]
+fn max_keep(x: Vec4, acc: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::_mm_max_ps;
+        // SAFETY: SSE is part of the x86-64 baseline.
+        Vec4::from(unsafe { _mm_max_ps(x.into(), acc.into()) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    Vec4::select(x.cmpgt(acc), x, acc)
+}
+
+/// Lane-wise `if x < acc { x } else { acc }`: NaN lanes of `x` keep `acc`.
+#[inline(always)]
+fn min_keep(x: Vec4, acc: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::_mm_min_ps;
+        // SAFETY: SSE is part of the x86-64 baseline.
+        Vec4::from(unsafe { _mm_min_ps(x.into(), acc.into()) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    Vec4::select(x.cmplt(acc), x, acc)
+}
+
 /// Stack entries name an inner node by its index and a leaf by this bit
 /// with its node's index and slot, so leaves are visited in distance order
 /// with the rest.
@@ -63,8 +90,8 @@ impl Bvh4 {
             };
             let tn = (near - ray.origin[axis]) * ray.inv_dir[axis];
             let tf = (far - ray.origin[axis]) * ray.inv_dir[axis] * EXIT_SCALE;
-            enter = Vec4::select(tn.cmpgt(enter), tn, enter);
-            exit = Vec4::select(tf.cmplt(exit), tf, exit);
+            enter = max_keep(tn, enter);
+            exit = min_keep(tf, exit);
         }
         (enter, enter.cmple(exit))
     }
