@@ -200,3 +200,39 @@ fn zero_area_triangles_are_never_hit() {
         assert_eq!(hit.triangle, 0);
     }
 }
+
+/// A ray that runs exactly in the plane of box faces (zero direction
+/// component, origin on the plane) still enters those boxes: here it meets
+/// the edge shared by two walls whose leaf boxes both end at y = 0.
+#[test]
+fn rays_in_box_face_planes_are_kept() {
+    let positions = vec![
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(1.0, -1.0, 1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(1.0, 1.0, 1.0),
+    ];
+    let triangles = vec![[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]];
+    let wall = TriangleMesh::new(positions, triangles).unwrap();
+    for method in [BuildMethod::Sah, BuildMethod::Lbvh] {
+        let options = BuildOptions {
+            max_leaf_size: 1,
+            ..BuildOptions::with_method(method)
+        };
+        let bvh = MeshBvh::build(&wall, &options);
+        for (origin, dir) in [
+            (Vec3::new(0.0, 0.0, 0.5), Vec3::X),
+            (Vec3::new(0.0, 0.0, 0.5), Vec3::new(1.0, -0.0, 0.0)),
+            (Vec3::new(2.0, 0.0, 0.25), Vec3::new(-1.0, 0.0, -0.0)),
+        ] {
+            let ray = Ray::new(origin, dir);
+            let hit = bvh.closest_hit(&ray);
+            assert_eq!(hit.map(|h| h.t), Some(1.0), "{method:?} {ray:?}");
+            let mut n = 0;
+            bvh.for_each_hit(&ray, |_, _| n += 1);
+            assert_eq!(n, 1, "{method:?} {ray:?}");
+        }
+    }
+}
