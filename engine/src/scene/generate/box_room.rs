@@ -7,9 +7,9 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::cells::{boundary, room_slot, split};
-use super::{check_positive, check_triangle_budget};
+use super::check_triangle_budget;
 use crate::scene::RawMesh;
-use crate::{Error, Result};
+use crate::Result;
 
 /// An axis-aligned box room, normals inward, each face split into
 /// `subdivisions²` quads (12·s² triangles). Slots: `floor` (z = min),
@@ -19,15 +19,11 @@ use crate::{Error, Result};
 pub struct BoxRoom {
     pub min: Vec3,
     pub max: Vec3,
-    #[serde(default = "one")]
+    #[serde(default = "super::one")]
     pub subdivisions: u32,
     /// Slot name to material name.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub materials: BTreeMap<String, String>,
-}
-
-fn one() -> u32 {
-    1
 }
 
 impl BoxRoom {
@@ -41,20 +37,8 @@ impl BoxRoom {
     }
 
     pub fn generate(&self) -> Result<RawMesh> {
-        let size = self.max - self.min;
-        for (what, v) in [
-            ("max.x - min.x", size.x),
-            ("max.y - min.y", size.y),
-            ("max.z - min.z", size.z),
-        ] {
-            check_positive("box_room", what, v)?;
-        }
-        let s = u64::from(self.subdivisions);
-        if s == 0 {
-            return Err(Error::InvalidScene(
-                "box_room.subdivisions is 0; it must be at least 1".into(),
-            ));
-        }
+        super::checked_size("box_room", self.min, self.max)?;
+        let s = super::checked_subdivisions("box_room", self.subdivisions)?;
         check_triangle_budget("box_room", 12 * s * s)?;
         let s = s as usize;
         let axes = [0, 1, 2].map(|a| split(&[self.min[a], self.max[a]], s));

@@ -21,28 +21,17 @@ pub struct LRoom {
     pub max: Vec3,
     /// Size of the removed corner in x and y.
     pub cutout: Vec2,
-    #[serde(default = "one")]
+    #[serde(default = "super::one")]
     pub subdivisions: u32,
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub materials: BTreeMap<String, String>,
 }
 
-fn one() -> u32 {
-    1
-}
-
 impl LRoom {
     pub fn generate(&self) -> Result<RawMesh> {
-        let size = self.max - self.min;
-        for (what, v) in [
-            ("max.x - min.x", size.x),
-            ("max.y - min.y", size.y),
-            ("max.z - min.z", size.z),
-            ("cutout.x", self.cutout.x),
-            ("cutout.y", self.cutout.y),
-        ] {
-            check_positive("l_room", what, v)?;
-        }
+        let size = super::checked_size("l_room", self.min, self.max)?;
+        check_positive("l_room", "cutout.x", self.cutout.x)?;
+        check_positive("l_room", "cutout.y", self.cutout.y)?;
         if self.cutout.x >= size.x || self.cutout.y >= size.y {
             return Err(Error::InvalidScene(format!(
                 "l_room.cutout {:?} must be smaller than the room's floor {:?}",
@@ -50,12 +39,7 @@ impl LRoom {
                 [size.x, size.y]
             )));
         }
-        let s = u64::from(self.subdivisions);
-        if s == 0 {
-            return Err(Error::InvalidScene(
-                "l_room.subdivisions is 0; it must be at least 1".into(),
-            ));
-        }
+        let s = super::checked_subdivisions("l_room", self.subdivisions)?;
         // Three cells of the 2×2×1 grid, six faces per cell at most.
         check_triangle_budget("l_room", 3 * 6 * 2 * s * s * s)?;
         let s = s as usize;

@@ -31,6 +31,34 @@ fn check_triangle_budget(generator: &str, triangles: u64) -> Result<()> {
 }
 
 /// Rejects a length that is not finite and positive.
+/// Default for every generator's `subdivisions` field.
+fn one() -> u32 {
+    1
+}
+
+/// The extent `max - min` of a room, each side checked to be positive.
+fn checked_size(generator: &str, min: glam::Vec3, max: glam::Vec3) -> Result<glam::Vec3> {
+    let size = max - min;
+    for (what, v) in [
+        ("max.x - min.x", size.x),
+        ("max.y - min.y", size.y),
+        ("max.z - min.z", size.z),
+    ] {
+        check_positive(generator, what, v)?;
+    }
+    Ok(size)
+}
+
+/// Subdivisions as a count, at least 1.
+fn checked_subdivisions(generator: &str, subdivisions: u32) -> Result<u64> {
+    if subdivisions == 0 {
+        return Err(Error::InvalidScene(format!(
+            "{generator}.subdivisions is 0; it must be at least 1"
+        )));
+    }
+    Ok(u64::from(subdivisions))
+}
+
 fn check_positive(generator: &str, what: &str, value: f32) -> Result<()> {
     if !(value.is_finite() && value > 0.0) {
         return Err(Error::InvalidScene(format!(
