@@ -46,6 +46,10 @@ pub enum Error {
     Io { path: String, reason: String },
     #[error("cannot parse {what}: {reason}")]
     Parse { what: String, reason: String },
+    #[error("invalid audio option: {0}")]
+    InvalidAudio(String),
+    #[error("audio file {path}: {reason}")]
+    Audio { path: String, reason: String },
 }
 
 impl Error {

@@ -10,7 +10,9 @@
 //! - [`scene`]: objects, materials, the JSON scene format, OBJ/glTF loaders
 //!   and generators for the bundled scenes;
 //! - [`query`]: the two-level scene acceleration structure and the ray
-//!   queries (closest hit, any hit, batched) answered on it.
+//!   queries (closest hit, any hit, batched) answered on it;
+//! - [`acoustics`]: turning sound arrivals at a listener into impulse
+//!   responses, room-acoustic parameters, WAV files and auralized audio.
 //!
 //! ```
 //! use frusta_engine::geometry::{Ray, TriangleMesh};
@@ -27,6 +29,7 @@
 //! assert!((hit.t - 2.0).abs() < 1e-6);
 //! ```
 
+pub mod acoustics;
 pub mod bvh;
 pub mod error;
 pub mod geometry;
