@@ -17,11 +17,13 @@ pub mod air;
 pub mod filter_bank;
 pub mod head;
 pub mod impulse_response;
+pub mod room_parameters;
 
 pub use air::AirConditions;
 pub use filter_bank::filter_and_sum;
 pub use head::{ear_responses, ListenerFrame};
 pub use impulse_response::{synthesize, Channels, ImpulseResponse, ImpulseResponseOptions};
+pub use room_parameters::{per_band, RoomParameters};
 
 /// One sound arrival at a listener.
 #[derive(Clone, Copy, Debug, PartialEq)]
