@@ -18,12 +18,14 @@ pub mod filter_bank;
 pub mod head;
 pub mod impulse_response;
 pub mod room_parameters;
+pub mod wav;
 
 pub use air::AirConditions;
 pub use filter_bank::filter_and_sum;
 pub use head::{ear_responses, ListenerFrame};
 pub use impulse_response::{synthesize, Channels, ImpulseResponse, ImpulseResponseOptions};
 pub use room_parameters::{per_band, RoomParameters};
+pub use wav::{read_wav, write_wav, write_wav_to};
 
 /// One sound arrival at a listener.
 #[derive(Clone, Copy, Debug, PartialEq)]
