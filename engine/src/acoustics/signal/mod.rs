@@ -14,6 +14,7 @@
 //! - [`convolve`]: FFT convolution and auralization of dry audio.
 
 pub mod air;
+pub mod convolve;
 pub mod filter_bank;
 pub mod head;
 pub mod impulse_response;
@@ -21,6 +22,7 @@ pub mod room_parameters;
 pub mod wav;
 
 pub use air::AirConditions;
+pub use convolve::{auralize, convolve};
 pub use filter_bank::filter_and_sum;
 pub use head::{ear_responses, ListenerFrame};
 pub use impulse_response::{synthesize, Channels, ImpulseResponse, ImpulseResponseOptions};
