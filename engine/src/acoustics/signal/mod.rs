@@ -11,7 +11,7 @@
 //! - [`room_parameters`]: ISO 3382-1 parameters (EDT, T20, T30, C50, C80,
 //!   D50, Ts) from an echogram;
 //! - [`wav`]: reading and writing WAV files;
-//! - [`convolve`]: FFT convolution and auralization of dry audio.
+//! - [`mod@convolve`]: FFT convolution and auralization of dry audio.
 
 pub mod air;
 pub mod convolve;
