@@ -1,6 +1,30 @@
-//! Acoustics: from sound arrivals at a listener to what a listener hears.
+//! Sound propagation by frustum tracing: specular paths from sources to
+//! listeners, validated exactly, and the exact image-source reference they
+//! are measured against.
 //!
-//! [`signal`] turns a list of arrivals into impulse responses, ISO 3382-1
-//! room parameters, WAV files and auralized audio.
+//! - [`surfaces`]: world triangles grouped into planes;
+//! - [`frustum`]: the frustum and its window space;
+//! - [`tracer`]: frustum tracing with per-cell classification, merging and
+//!   secondary frusta;
+//! - [`path`]: event sequences, image sources and exact validation;
+//! - [`reference`]: the exhaustive image-source solver;
+//! - [`scene`]: [`AcousticScene`], what propagation reads of a scene;
+//! - [`propagation`]: paths with per-band gains, impulse responses and room
+//!   parameters for sources and listeners;
+//! - [`signal`]: arrivals to impulse responses, ISO 3382-1 parameters, WAV
+//!   files and auralization.
 
+mod cull;
+pub mod frustum;
+mod merge;
+pub mod path;
+pub mod propagation;
+pub mod reference;
+pub mod scene;
 pub mod signal;
+pub mod surfaces;
+pub mod tracer;
+
+pub use propagation::{simulate, Response, SimulationOptions, SoundPath};
+pub use scene::{AcousticScene, FoundPaths};
+pub use tracer::{TraceOptions, TraceStats};

@@ -106,6 +106,11 @@ impl MeshBvh {
         &self.prim_ids
     }
 
+    /// Triangle corners in leaf order (slot `i` is triangle `prim_ids()[i]`).
+    pub(crate) fn leaf_triangles(&self) -> &[[Vec3A; 3]] {
+        &self.triangles
+    }
+
     pub fn options(&self) -> &BuildOptions {
         &self.options
     }

@@ -9,22 +9,22 @@ use crate::{Error, Result};
 
 /// One object of the scene as the queries see it.
 #[derive(Clone, Debug)]
-pub(super) struct Instance {
-    pub(super) bvh: MeshBvh,
-    pub(super) materials: Vec<MaterialId>,
-    pub(super) to_world: RigidTransform,
-    pub(super) to_object: RigidTransform,
+pub(crate) struct Instance {
+    pub(crate) bvh: MeshBvh,
+    pub(crate) materials: Vec<MaterialId>,
+    pub(crate) to_world: RigidTransform,
+    pub(crate) to_object: RigidTransform,
     /// Identity transforms skip moving the ray.
-    pub(super) identity: bool,
+    pub(crate) identity: bool,
 }
 
 /// The two-level acceleration structure of a scene.
 #[derive(Clone, Debug)]
 pub struct SceneBvh {
-    pub(super) instances: Vec<Instance>,
+    pub(crate) instances: Vec<Instance>,
     /// Top level over the instances' world boxes; rebuilt whenever an object
     /// moves, which costs microseconds for the tens of objects a scene has.
-    pub(super) top: Bvh,
+    pub(crate) top: Bvh,
     options: BuildOptions,
 }
 

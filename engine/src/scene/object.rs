@@ -3,7 +3,7 @@ use glam::Vec3;
 use crate::geometry::{RigidTransform, TriangleMesh};
 use crate::{Error, Result};
 
-use super::{Material, MaterialId};
+use super::{Material, MaterialId, RawMesh};
 
 /// One named object of a scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -27,6 +27,23 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// A scene of one object whose every triangle has `material`: for
+    /// generated rooms and quick studies.
+    pub fn single_object(name: &str, mesh: RawMesh, material: Material) -> Result<Self> {
+        let mesh =
+            TriangleMesh::new(mesh.positions, mesh.triangles).map_err(|e| e.in_object(name))?;
+        Ok(Self {
+            objects: vec![SceneObject {
+                name: name.to_owned(),
+                materials: vec![0; mesh.triangle_count()],
+                mesh,
+                transform: RigidTransform::IDENTITY,
+                dynamic: false,
+            }],
+            materials: vec![material.validated()?],
+        })
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.objects.iter().map(|o| o.mesh.triangle_count()).sum()
     }

@@ -1,0 +1,345 @@
+//! From a scene, a source and listeners to what each listener hears: the
+//! validated specular paths with their per-band pressure gains, the
+//! impulse response, and its ISO 3382-1 parameters.
+
+use std::time::Instant;
+
+use glam::{DVec3, Vec3};
+use serde::{Deserialize, Serialize};
+
+use super::path::ValidPath;
+use super::signal::{
+    self, AirConditions, Arrival, ImpulseResponse, ImpulseResponseOptions, RoomParameters,
+};
+use super::{AcousticScene, TraceOptions, TraceStats};
+use crate::scene::{Bands, BAND_COUNT, OCTAVE_BANDS_HZ};
+use crate::{Error, Result};
+
+/// Closer than this, spherical spreading is held at its value here: a
+/// point source has no meaning at zero distance, and a gain must stay finite.
+pub const MIN_SPREADING_DISTANCE_M: f64 = 1e-3;
+
+/// Highest order accepted: beyond it the count of frusta is astronomical
+/// in any room.
+pub const MAX_ORDER: u32 = 32;
+
+/// Everything a simulation can be asked for; every field has a default.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimulationOptions {
+    pub max_order: u32,
+    /// Sub-frusta per frustum side (`N`), 1..=64.
+    pub sampling: u32,
+    /// Frusta per cube-face side leaving the source.
+    pub primary_split: u32,
+    /// Energy (relative to the source, per band) below which a frustum
+    /// spawns no more frusta.
+    pub energy_threshold: f32,
+    /// Octave band centres to compute, a subset of 63 Hz..8 kHz.
+    pub bands_hz: Vec<f32>,
+    /// Air absorption (ISO 9613-1); `None` turns it off.
+    pub air: Option<AirConditions>,
+    pub sample_rate: u32,
+    pub channels: signal::Channels,
+    pub listener_frame: signal::ListenerFrame,
+}
+
+impl Default for SimulationOptions {
+    fn default() -> Self {
+        Self {
+            max_order: 4,
+            sampling: 8,
+            primary_split: 2,
+            energy_threshold: 1e-6,
+            bands_hz: OCTAVE_BANDS_HZ.to_vec(),
+            air: Some(AirConditions::default()),
+            sample_rate: 48_000,
+            channels: signal::Channels::Mono,
+            listener_frame: signal::ListenerFrame::default(),
+        }
+    }
+}
+
+impl SimulationOptions {
+    /// Band indices of [`Self::bands_hz`], checked.
+    fn band_indices(&self) -> Result<Vec<usize>> {
+        if self.bands_hz.is_empty() {
+            return Err(Error::InvalidScene(
+                "bands_hz is empty; name at least one octave band".into(),
+            ));
+        }
+        let mut out = Vec::with_capacity(self.bands_hz.len());
+        for &hz in &self.bands_hz {
+            let b = OCTAVE_BANDS_HZ
+                .iter()
+                .position(|&c| c == hz)
+                .ok_or_else(|| {
+                    Error::InvalidScene(format!(
+                        "band {hz} Hz is not one of the octave bands {OCTAVE_BANDS_HZ:?}"
+                    ))
+                })?;
+            if out.contains(&b) {
+                return Err(Error::InvalidScene(format!("band {hz} Hz is listed twice")));
+            }
+            out.push(b);
+        }
+        Ok(out)
+    }
+
+    /// Checks every option; the error names the one at fault.
+    pub fn trace_options(&self) -> Result<TraceOptions> {
+        if self.max_order > MAX_ORDER {
+            return Err(Error::InvalidScene(format!(
+                "max_order {} exceeds {MAX_ORDER}",
+                self.max_order
+            )));
+        }
+        if !(1..=64).contains(&self.sampling) {
+            return Err(Error::InvalidScene(format!(
+                "sampling {} must lie in 1..=64",
+                self.sampling
+            )));
+        }
+        if !(1..=16).contains(&self.primary_split) {
+            return Err(Error::InvalidScene(format!(
+                "primary_split {} must lie in 1..=16",
+                self.primary_split
+            )));
+        }
+        if !(self.energy_threshold >= 0.0 && self.energy_threshold < 1.0) {
+            return Err(Error::InvalidScene(format!(
+                "energy_threshold {} must lie in [0, 1)",
+                self.energy_threshold
+            )));
+        }
+        if let Some(air) = self.air {
+            air.validated()?;
+        }
+        let mut active_bands = [false; BAND_COUNT];
+        for b in self.band_indices()? {
+            active_bands[b] = true;
+        }
+        Ok(TraceOptions {
+            max_order: self.max_order,
+            sampling: self.sampling,
+            primary_split: self.primary_split,
+            energy_threshold: self.energy_threshold,
+            active_bands,
+        })
+    }
+}
+
+/// One surface a path meets.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SurfaceEvent {
+    pub object: String,
+    /// Triangle index in the object's mesh.
+    pub triangle: u32,
+    pub material: String,
+    /// `"reflection"` or `"transmission"`.
+    pub event: &'static str,
+    pub point: [f64; 3],
+}
+
+/// One validated specular path.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SoundPath {
+    pub order: usize,
+    pub distance_m: f64,
+    pub delay_s: f64,
+    pub image_source: [f64; 3],
+    pub surfaces: Vec<SurfaceEvent>,
+    /// Linear pressure amplitude per requested band, relative to the source
+    /// level at 1 m.
+    pub pressure_gain: Vec<f32>,
+}
+
+/// ISO 3382-1 parameters of one band.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BandParameters {
+    pub band_hz: f32,
+    #[serde(flatten)]
+    pub parameters: RoomParameters,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SimulationStats {
+    /// Frusta traced for this response's source (shared by its listeners).
+    pub frusta: u64,
+    pub triangle_tests: u64,
+    pub proposals: u64,
+    pub paths: usize,
+    pub trace_ms: f64,
+    pub total_ms: f64,
+    pub threads: usize,
+}
+
+/// What one listener hears from one source.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Response {
+    pub source: usize,
+    pub listener: usize,
+    pub bands_hz: Vec<f32>,
+    pub speed_of_sound_m_s: f64,
+    pub paths: Vec<SoundPath>,
+    pub parameters: Vec<BandParameters>,
+    pub stats: SimulationStats,
+    #[serde(skip)]
+    pub impulse_response: ImpulseResponse,
+}
+
+/// Simulates every source-listener pair: one frustum trace per source
+/// serves all its listeners.
+pub fn simulate(
+    scene: &AcousticScene,
+    sources: &[Vec3],
+    listeners: &[Vec3],
+    options: &SimulationOptions,
+) -> Result<Vec<Response>> {
+    let start = Instant::now();
+    let trace_options = options.trace_options()?;
+    let bands = options.band_indices()?;
+    let ir_options = ImpulseResponseOptions {
+        sample_rate: options.sample_rate,
+        channels: options.channels,
+        bands: bands.clone(),
+        listener: options.listener_frame,
+    }
+    .validated()?;
+    let speed = options.air.unwrap_or_default().speed_of_sound();
+    let listener_points: Vec<DVec3> = listeners
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| scene.check_point(&format!("listener {i}"), p))
+        .collect::<Result<_>>()?;
+    let mut out = Vec::with_capacity(sources.len() * listeners.len());
+    for (s, &source) in sources.iter().enumerate() {
+        let source_point = scene.check_point(&format!("source {s}"), source)?;
+        let trace_start = Instant::now();
+        let found = scene.find_paths(source_point, &listener_points, &trace_options);
+        let trace_ms = trace_start.elapsed().as_secs_f64() * 1e3;
+        for (l, paths) in found.paths.iter().enumerate() {
+            let arrivals: Vec<Arrival> = paths
+                .iter()
+                .map(|p| arrival(scene, p, listener_points[l], speed, options.air.as_ref()))
+                .collect();
+            let impulse_response = signal::synthesize(&arrivals, &ir_options)?;
+            let parameters = signal::per_band(&arrivals, &bands)?
+                .into_iter()
+                .map(|(band_hz, parameters)| BandParameters {
+                    band_hz,
+                    parameters,
+                })
+                .collect();
+            let sound_paths: Vec<SoundPath> = paths
+                .iter()
+                .zip(&arrivals)
+                .map(|(p, a)| sound_path(scene, p, a, &bands, speed))
+                .collect();
+            out.push(Response {
+                source: s,
+                listener: l,
+                bands_hz: bands.iter().map(|&b| OCTAVE_BANDS_HZ[b]).collect(),
+                speed_of_sound_m_s: speed,
+                stats: stats(&found.stats, sound_paths.len(), trace_ms, start),
+                paths: sound_paths,
+                parameters,
+                impulse_response,
+            });
+        }
+    }
+    Ok(out)
+}
+
+fn stats(t: &TraceStats, paths: usize, trace_ms: f64, start: Instant) -> SimulationStats {
+    SimulationStats {
+        frusta: t.frusta,
+        triangle_tests: t.triangle_tests,
+        proposals: t.proposals,
+        paths,
+        trace_ms,
+        total_ms: start.elapsed().as_secs_f64() * 1e3,
+        threads: rayon::current_num_threads(),
+    }
+}
+
+/// The path's arrival: surface factors (pressure: `sqrt(1 - alpha)` per
+/// reflection, `sqrt(tau)` per transmission), spherical spreading and air
+/// absorption, from the direction of its last leg.
+pub fn arrival(
+    scene: &AcousticScene,
+    p: &ValidPath,
+    listener: DVec3,
+    speed: f64,
+    air: Option<&AirConditions>,
+) -> Arrival {
+    let mut gain: Bands = [1.0; BAND_COUNT];
+    for v in &p.vertices {
+        let group = scene.surfaces().group(v.event.group());
+        if let Some(m) = scene.materials.get(group.material as usize) {
+            for (b, g) in gain.iter_mut().enumerate() {
+                *g *= if v.event.is_transmission() {
+                    m.transmission[b].sqrt()
+                } else {
+                    (1.0 - m.absorption[b]).sqrt()
+                };
+            }
+        }
+    }
+    let spreading = 1.0 / p.length.max(MIN_SPREADING_DISTANCE_M);
+    let air = air
+        .map(|a| a.pressure_factors(p.length))
+        .unwrap_or([1.0; BAND_COUNT]);
+    for (g, a) in gain.iter_mut().zip(air) {
+        *g = (f64::from(*g) * spreading * f64::from(a)) as f32;
+    }
+    let from = p.vertices.last().map_or(p.image_source, |v| v.point);
+    Arrival {
+        delay_s: p.length / speed,
+        direction: (from - listener).normalize_or_zero().as_vec3(),
+        pressure_gain: gain,
+    }
+}
+
+fn sound_path(
+    scene: &AcousticScene,
+    p: &ValidPath,
+    a: &Arrival,
+    bands: &[usize],
+    speed: f64,
+) -> SoundPath {
+    let surfaces = p
+        .vertices
+        .iter()
+        .map(|v| {
+            let material = scene.surfaces().group(v.event.group()).material as usize;
+            SurfaceEvent {
+                object: scene
+                    .object_names
+                    .get(v.object as usize)
+                    .cloned()
+                    .unwrap_or_default(),
+                triangle: v.triangle,
+                material: scene
+                    .materials
+                    .get(material)
+                    .map(|m| m.name.clone())
+                    .unwrap_or_default(),
+                event: if v.event.is_transmission() {
+                    "transmission"
+                } else {
+                    "reflection"
+                },
+                point: v.point.to_array(),
+            }
+        })
+        .collect();
+    SoundPath {
+        order: p.order(),
+        distance_m: p.length,
+        delay_s: p.length / speed,
+        image_source: p.image_source.to_array(),
+        surfaces,
+        pressure_gain: bands.iter().map(|&b| a.pressure_gain[b]).collect(),
+    }
+}

@@ -1,0 +1,436 @@
+//! Frustum tracing (Lauterbach's dissertation, section 6.1): frusta leave
+//! the source tiling the sphere; each is split into `N x N` sub-frusta
+//! (cells), the triangles it meets are classified per cell, and the cells
+//! that meet one plane group are merged into secondary frusta, mirrored in
+//! that plane (reflection) or continued through it (transmission).
+//!
+//! Classification is done in the frustum's window space, where a triangle
+//! projects to a polygon and a cell to a square: the sign of a triangle
+//! edge's 2D line function at a cell corner is the sign of the Plücker
+//! product of that corner ray with the edge, so "all corners inside" is the
+//! fully-inside case (no sample rays needed), "all corners outside one edge"
+//! is a miss, and only cells inside the triangle's window bounds are looked
+//! at. A cell is handed to every triangle that touches it, except those
+//! wholly behind a triangle that covers the cell: conservative, so that
+//! every image source is proposed, and exact validation
+//! ([`validate`](super::path::validate)) rejects what is not a path.
+
+use glam::{DVec2, DVec3};
+
+use super::cull::{for_each_triangle, BoxCull};
+use super::frustum::Frustum;
+use super::merge::merge_cells;
+use super::path::Event;
+use super::surfaces::{Surfaces, NO_GROUP};
+use crate::query::SceneBvh;
+use crate::scene::{Bands, Material, BAND_COUNT};
+
+/// How far to trace.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceOptions {
+    /// Highest number of surface events on a path.
+    pub max_order: u32,
+    /// Cells per frustum side (`N`); 1..=64.
+    pub sampling: u32,
+    /// Frusta per cube-face side for the frusta leaving the source.
+    pub primary_split: u32,
+    /// A frustum whose energy, relative to the source, has fallen below this
+    /// in every active band spawns no more frusta.
+    pub energy_threshold: f32,
+    /// Bands that count for the energy threshold.
+    pub active_bands: [bool; BAND_COUNT],
+}
+
+impl Default for TraceOptions {
+    fn default() -> Self {
+        Self {
+            max_order: 4,
+            sampling: 8,
+            primary_split: 2,
+            energy_threshold: 1e-6,
+            active_bands: [true; BAND_COUNT],
+        }
+    }
+}
+
+/// Counters of one trace.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct TraceStats {
+    /// Frusta traced, primary and secondary.
+    pub frusta: u64,
+    /// Triangle-against-frustum classifications.
+    pub triangle_tests: u64,
+    /// Event sequences proposed for validation (before de-duplication).
+    pub proposals: u64,
+}
+
+impl TraceStats {
+    fn add(mut self, o: Self) -> Self {
+        self.frusta += o.frusta;
+        self.triangle_tests += o.triangle_tests;
+        self.proposals += o.proposals;
+        self
+    }
+}
+
+/// A frustum waiting to be traced, with the events that led to it.
+struct Pending {
+    frustum: Frustum,
+    /// Index of its last event in the history arena (`u32::MAX`: none).
+    history: u32,
+    order: u32,
+    energy: Bands,
+}
+
+/// Reusable buffers of one worker.
+#[derive(Default)]
+struct Scratch {
+    cover: Vec<f64>,
+    /// `(cell, group, nearest depth)` of every cell-triangle contact.
+    contacts: Vec<(u32, u32, f64)>,
+    /// `(group, cell)` pairs that survive occlusion.
+    touched: Vec<(u32, u32)>,
+    rects: Vec<[u32; 4]>,
+    stack: Vec<u32>,
+    history: Vec<(u32, Event)>,
+    pending: Vec<Pending>,
+}
+
+/// Everything the tracer reads.
+pub(crate) struct TraceInput<'a> {
+    pub bvh: &'a SceneBvh,
+    pub surfaces: &'a Surfaces,
+    pub materials: &'a [Material],
+    pub source: DVec3,
+    pub listeners: &'a [DVec3],
+}
+
+/// Traces frusta from the source and proposes, per listener, the event
+/// sequences of every frustum that contains it.
+pub(crate) fn trace(
+    input: &TraceInput,
+    options: &TraceOptions,
+) -> (Vec<Vec<Vec<Event>>>, TraceStats) {
+    use rayon::prelude::*;
+    let primaries = Frustum::sphere(input.source, options.primary_split);
+    let n_listeners = input.listeners.len();
+    primaries
+        .into_par_iter()
+        .map_init(Scratch::default, |scratch, f| {
+            let mut proposals = vec![Vec::new(); n_listeners];
+            let stats = trace_primary(input, options, f, scratch, &mut proposals);
+            (proposals, stats)
+        })
+        .reduce(
+            || (vec![Vec::new(); n_listeners], TraceStats::default()),
+            |(mut a, sa), (b, sb)| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    x.extend(y);
+                }
+                (a, sa.add(sb))
+            },
+        )
+}
+
+/// Depth-first tracing of one primary frustum and everything it spawns.
+fn trace_primary(
+    input: &TraceInput,
+    options: &TraceOptions,
+    primary: Frustum,
+    scratch: &mut Scratch,
+    proposals: &mut [Vec<Vec<Event>>],
+) -> TraceStats {
+    let mut stats = TraceStats::default();
+    scratch.history.clear();
+    scratch.pending.clear();
+    scratch.pending.push(Pending {
+        frustum: primary,
+        history: u32::MAX,
+        order: 0,
+        energy: [1.0; BAND_COUNT],
+    });
+    while let Some(p) = scratch.pending.pop() {
+        stats.frusta += 1;
+        if p.order > 0 {
+            for (l, &listener) in input.listeners.iter().enumerate() {
+                if p.frustum.contains(listener, LISTENER_MARGIN) {
+                    proposals[l].push(events_of(&scratch.history, p.history));
+                    stats.proposals += 1;
+                }
+            }
+        }
+        if p.order < options.max_order {
+            expand(input, options, &p, scratch, &mut stats);
+        }
+    }
+    stats
+}
+
+/// Frusta are widened by this much (in window units) when testing whether
+/// they contain a listener, so a listener on the border of two frusta is
+/// proposed by both and then counted once.
+const LISTENER_MARGIN: f64 = 1e-7;
+
+fn events_of(history: &[(u32, Event)], mut at: u32) -> Vec<Event> {
+    let mut out = Vec::new();
+    while at != u32::MAX {
+        let (parent, e) = history[at as usize];
+        out.push(e);
+        at = parent;
+    }
+    out.reverse();
+    out
+}
+
+/// Classifies the triangles `p` meets per cell and pushes its secondary
+/// frusta.
+fn expand(
+    input: &TraceInput,
+    options: &TraceOptions,
+    p: &Pending,
+    scratch: &mut Scratch,
+    stats: &mut TraceStats,
+) {
+    let n = options.sampling.clamp(1, 64) as usize;
+    let f = &p.frustum;
+    let scale = input.surfaces.scale();
+    let last_group = (p.history != u32::MAX).then(|| scratch.history[p.history as usize].1.group());
+    scratch.cover.clear();
+    scratch.cover.resize(n * n, f64::INFINITY);
+    scratch.contacts.clear();
+    let cull = BoxCull::new(f, (scale * 1e-6) as f32);
+    let Scratch {
+        cover,
+        contacts,
+        stack,
+        ..
+    } = scratch;
+    for_each_triangle(input.bvh, input.surfaces, &cull, stack, |i| {
+        let (corners, group) = input.surfaces.slot(i);
+        if group == NO_GROUP || Some(group) == last_group {
+            return;
+        }
+        stats.triangle_tests += 1;
+        classify(f, input.surfaces, corners, group, n, scale, cover, contacts);
+    });
+    // A contact counts unless a covering triangle lies wholly in front of
+    // it over the whole cell.
+    scratch.touched.clear();
+    let cover = &scratch.cover;
+    scratch.touched.extend(
+        scratch
+            .contacts
+            .iter()
+            .filter(|&&(cell, _, depth)| depth <= cover[cell as usize] * (1.0 + 1e-9))
+            .map(|&(cell, group, _)| (group, cell)),
+    );
+    scratch.touched.sort_unstable();
+    scratch.touched.dedup();
+    let touched = std::mem::take(&mut scratch.touched);
+    for cells in touched.chunk_by(|a, b| a.0 == b.0) {
+        spawn(input, options, p, cells, n, scratch);
+    }
+    scratch.touched = touched;
+}
+
+/// Pushes the secondary frusta over `cells`, `(group, cell)` pairs of one
+/// group.
+fn spawn(
+    input: &TraceInput,
+    options: &TraceOptions,
+    p: &Pending,
+    cells: &[(u32, u32)],
+    n: usize,
+    scratch: &mut Scratch,
+) {
+    let group = cells[0].0;
+    let g = input.surfaces.group(group);
+    let Some(material) = input.materials.get(g.material as usize) else {
+        return;
+    };
+    let step = 1.0 / n as f64;
+    let mut rects = std::mem::take(&mut scratch.rects);
+    rects.clear();
+    merge_cells(cells, n, &mut rects);
+    for &[i0, i1, j0, j1] in &rects {
+        let Some(sub) = p.frustum.sub(
+            i0 as f64 * step,
+            (i1 + 1) as f64 * step,
+            j0 as f64 * step,
+            (j1 + 1) as f64 * step,
+        ) else {
+            continue;
+        };
+        let reflect = std::array::from_fn(|b| p.energy[b] * (1.0 - material.absorption[b]));
+        let through = std::array::from_fn(|b| p.energy[b] * material.transmission[b]);
+        let children = [
+            (sub.reflected(&g.plane), reflect, Event::reflection(group)),
+            (
+                if material.transmits() {
+                    sub.transmitted(&g.plane)
+                } else {
+                    None
+                },
+                through,
+                Event::transmission(group),
+            ),
+        ];
+        for (frustum, energy, event) in children {
+            let Some(frustum) = frustum else { continue };
+            let loud = energy
+                .iter()
+                .zip(&options.active_bands)
+                .any(|(&e, &on)| on && e >= options.energy_threshold);
+            if !loud {
+                continue;
+            }
+            scratch.history.push((p.history, event));
+            scratch.pending.push(Pending {
+                frustum,
+                history: scratch.history.len() as u32 - 1,
+                order: p.order + 1,
+                energy,
+            });
+        }
+    }
+    scratch.rects = rects;
+}
+
+/// Classifies one triangle against the cells of frustum `f`: records a
+/// contact for every cell it touches and lowers the cover depth of every
+/// cell it fully covers.
+#[allow(clippy::too_many_arguments)]
+fn classify(
+    f: &Frustum,
+    surfaces: &Surfaces,
+    corners: &[glam::Vec3A; 3],
+    group: u32,
+    n: usize,
+    scale: f64,
+    cover: &mut [f64],
+    contacts: &mut Vec<(u32, u32, f64)>,
+) {
+    let plane = surfaces.group(group).plane;
+    let apex_distance = plane.distance(f.apex);
+    // A plane through the apex is seen edge-on: it neither reflects nor
+    // hides anything.
+    if apex_distance.abs() <= 1e-12 * scale {
+        return;
+    }
+    let p = corners.map(|c| c.as_dvec3());
+    let mut wholly_valid = true;
+    if let Some(near) = &f.near {
+        let d = p.map(|q| near.distance(q));
+        let tol = 1e-9 * scale;
+        if d.iter().all(|&x| x < tol) {
+            return;
+        }
+        wholly_valid = d.iter().all(|&x| x > tol);
+    }
+    let w = p.map(|q| f.window_coords(q));
+    let s_min = 1e-12 * scale;
+    let mut poly = [DVec2::ZERO; 4];
+    let (count, clipped) = project(&w, s_min, &mut poly);
+    if count < 3 {
+        return;
+    }
+    let poly = &poly[..count];
+    let (lo, hi) = poly.iter().fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(lo, hi), q| (lo.min(*q), hi.max(*q)),
+    );
+    const MARGIN: f64 = 1e-9;
+    if hi.x < -MARGIN || hi.y < -MARGIN || lo.x > 1.0 + MARGIN || lo.y > 1.0 + MARGIN {
+        return;
+    }
+    let nf = n as f64;
+    let cell_range = |a: f64, b: f64| {
+        let first = ((a - MARGIN) * nf).floor().clamp(0.0, nf - 1.0) as usize;
+        let last = ((b + MARGIN) * nf).floor().clamp(0.0, nf - 1.0) as usize;
+        (first, last)
+    };
+    let (i0, i1) = cell_range(lo.x, hi.x);
+    let (j0, j1) = cell_range(lo.y, hi.y);
+    // Edge lines, oriented so the polygon is on their positive side and
+    // scaled to give distances in window units.
+    let area2: f64 = (0..count)
+        .map(|k| poly[k].perp_dot(poly[(k + 1) % count]))
+        .sum();
+    if area2 == 0.0 || !area2.is_finite() {
+        return;
+    }
+    let orient = area2.signum();
+    let mut edges = [(DVec2::ZERO, 0.0); 4];
+    for k in 0..count {
+        let (a, b) = (poly[k], poly[(k + 1) % count]);
+        let d = b - a;
+        let len = d.length();
+        let normal = DVec2::new(-d.y, d.x) * (orient / len);
+        edges[k] = (normal, normal.dot(a));
+    }
+    let edges = &edges[..count];
+    let depth = w.iter().map(|q| q.z).fold(f64::INFINITY, f64::min).max(0.0);
+    let can_cover = wholly_valid && !clipped;
+    let step = 1.0 / nf;
+    let plane_offset = -apex_distance;
+    for i in i0..=i1 {
+        for j in j0..=j1 {
+            let c = [
+                DVec2::new(i as f64 * step, j as f64 * step),
+                DVec2::new((i + 1) as f64 * step, j as f64 * step),
+                DVec2::new((i + 1) as f64 * step, (j + 1) as f64 * step),
+                DVec2::new(i as f64 * step, (j + 1) as f64 * step),
+            ];
+            let mut inside_all = true;
+            let mut separated = false;
+            for &(normal, offset) in edges {
+                let e = c.map(|q| normal.dot(q) - offset);
+                if e.iter().all(|&x| x < -MARGIN) {
+                    separated = true;
+                    break;
+                }
+                inside_all &= e.iter().all(|&x| x > MARGIN);
+            }
+            if separated {
+                continue;
+            }
+            let cell = (i * n + j) as u32;
+            contacts.push((cell, group, depth));
+            if can_cover && inside_all {
+                // Depth of the plane along each corner direction; the
+                // farthest bounds the plane over the whole cell.
+                let far = c
+                    .iter()
+                    .map(|q| plane_offset / plane.normal.dot(f.direction(q.x, q.y)))
+                    .fold(0.0f64, f64::max);
+                let slot = &mut cover[cell as usize];
+                *slot = slot.min(far);
+            }
+        }
+    }
+}
+
+/// Projects a triangle given in window coordinates `(x, y, s)` onto the
+/// window, first clipping away the part with `s < s_min` (behind or at the
+/// apex). Returns the vertex count and whether anything was clipped.
+fn project(w: &[DVec3; 3], s_min: f64, out: &mut [DVec2; 4]) -> (usize, bool) {
+    let mut count = 0;
+    let mut clipped = false;
+    for k in 0..3 {
+        let (a, b) = (w[k], w[(k + 1) % 3]);
+        let a_in = a.z >= s_min;
+        if a_in {
+            out[count] = DVec2::new(a.x / a.z, a.y / a.z);
+            count += 1;
+        } else {
+            clipped = true;
+        }
+        if a_in != (b.z >= s_min) && count < 4 {
+            let t = (s_min - a.z) / (b.z - a.z);
+            let q = a + (b - a) * t;
+            out[count] = DVec2::new(q.x / q.z, q.y / q.z);
+            count += 1;
+        }
+    }
+    (count, clipped)
+}
