@@ -2,10 +2,13 @@
 //!
 //! `frusta-bench bvh --mesh PATH [--json] [--rays N]` compares our BVH with
 //! peer libraries on the same mesh and rays (see `bvh_bench`). Further
-//! subcommands (`propagation`, `serve`) will join [`Command`].
+//! `frusta-bench propagation [--json] [--quick] [--plot FILE.png]` sweeps
+//! frustum tracing against the image-source reference (see `propagation`).
+//! `serve` will join [`Command`].
 
 mod bvh_bench;
 mod mesh;
+mod propagation;
 mod rays;
 mod report;
 
@@ -30,6 +33,9 @@ enum Command {
     /// BVH build, refit and trace: ours vs bvh, obvhs, parry3d (and Embree
     /// with the `embree` feature).
     Bvh(BvhArgs),
+    /// Specular paths by frustum tracing vs the exact image-source
+    /// reference over sampling N and order (pyroomacoustics as a peer).
+    Propagation(propagation::Args),
 }
 
 #[derive(clap::Args)]
@@ -63,14 +69,16 @@ struct BvhArgs {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match cli.command {
-        Command::Bvh(args) => match bvh(args) {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(e) => {
-                eprintln!("error: {e}");
-                ExitCode::FAILURE
-            }
-        },
+    let result = match cli.command {
+        Command::Bvh(args) => bvh(args),
+        Command::Propagation(args) => propagation::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
     }
 }
 
