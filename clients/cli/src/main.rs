@@ -1,7 +1,9 @@
-//! `frusta`: offline tools for inspecting scenes and tracing single rays,
-//! without running the service.
+//! `frusta`: offline tools for inspecting scenes, tracing single rays and
+//! computing impulse responses, without running the service.
 
+mod auralize;
 mod info;
+mod ir;
 mod trace;
 mod vec3;
 
@@ -15,7 +17,7 @@ use glam::Vec3;
 #[command(
     name = "frusta",
     version,
-    about = "Inspect frusta scenes and trace rays"
+    about = "Inspect frusta scenes, trace rays, compute impulse responses"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -44,6 +46,20 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Impulse response from a source to a listener by frustum tracing.
+    Ir(Box<ir::IrArgs>),
+    /// Convolve a dry WAV with an impulse response WAV.
+    Auralize {
+        /// Impulse response WAV (e.g. from `frusta ir --out`).
+        #[arg(long)]
+        ir: PathBuf,
+        /// Dry (anechoic) recording.
+        #[arg(long)]
+        dry: PathBuf,
+        /// Output WAV.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 #[derive(Subcommand)]
@@ -69,6 +85,8 @@ fn main() -> ExitCode {
             direction,
             json,
         } => trace::run(&scene, origin, direction, json),
+        Command::Ir(args) => ir::run(&args),
+        Command::Auralize { ir, dry, out } => auralize::run(&ir, &dry, &out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

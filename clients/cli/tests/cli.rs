@@ -112,3 +112,84 @@ fn bad_input_fails_cleanly() {
     let out = frusta(&["scene", "info", "no/such/scene.json"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/scene.json"));
 }
+
+#[test]
+fn ir_shoebox_gives_the_129_image_sources_and_a_wav_that_auralizes() {
+    let dir = std::env::temp_dir().join(format!("frusta-cli-ir-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let ir = dir.join("ir.wav");
+    let out = frusta(&[
+        "ir",
+        "--shoebox",
+        "10,6,3",
+        "--absorption",
+        "0.1",
+        "--source",
+        "2,3,1.5",
+        "--listener",
+        "7.1,2.3,1.2",
+        "--max-order",
+        "4",
+        "--sampling",
+        "8",
+        "--no-air",
+        "--json",
+        "--out",
+        ir.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let doc = stdout_json(&out);
+    let paths = doc["paths"].as_array().unwrap();
+    assert_eq!(paths.len(), 129);
+    assert_eq!(doc["bands_hz"].as_array().unwrap().len(), 8);
+    // The direct path: no surfaces, gain 1/r with air absorption off.
+    let direct = &paths[0];
+    assert_eq!(direct["order"], 0);
+    let r = direct["distance_m"].as_f64().unwrap();
+    let expected = ((7.1f64 - 2.0).powi(2) + 0.7f64.powi(2) + 0.3f64.powi(2)).sqrt();
+    assert!((r - expected).abs() < 1e-5, "{r} vs {expected}");
+    let g = direct["pressure_gain"][4].as_f64().unwrap();
+    assert!((g - 1.0 / r).abs() < 1e-5);
+    // A first-order path carries sqrt(1 - 0.1) per reflection.
+    let first = paths.iter().find(|p| p["order"] == 1).unwrap();
+    let g1 = first["pressure_gain"][0].as_f64().unwrap() * first["distance_m"].as_f64().unwrap();
+    assert!((g1 - 0.9f64.sqrt()).abs() < 1e-5, "{g1}");
+    assert!(doc["stats"]["frusta"].as_u64().unwrap() > 0);
+    assert!(doc["parameters"][4]["edt_s"].as_f64().is_some());
+
+    let wet = dir.join("wet.wav");
+    let out = frusta(&[
+        "auralize",
+        "--ir",
+        ir.to_str().unwrap(),
+        "--dry",
+        ir.to_str().unwrap(),
+        "--out",
+        wet.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    assert!(std::fs::metadata(&wet).unwrap().len() > std::fs::metadata(&ir).unwrap().len());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn ir_rejects_bad_input_with_a_message() {
+    let out = frusta(&[
+        "ir",
+        "--scene",
+        SHOEBOX,
+        "--source",
+        "2,3,1.5",
+        "--listener",
+        "1,1,1",
+        "--sampling",
+        "0",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("sampling"),
+        "{out:?}"
+    );
+    let out = frusta(&["ir", "--source", "2,3,1.5", "--listener", "1,1,1"]);
+    assert!(!out.status.success());
+}

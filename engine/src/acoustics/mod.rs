@@ -27,4 +27,4 @@ pub mod tracer;
 
 pub use propagation::{simulate, Response, SimulationOptions, SoundPath};
 pub use scene::{AcousticScene, FoundPaths};
-pub use tracer::{TraceOptions, TraceStats};
+pub use tracer::{CellAssignment, TraceOptions, TraceStats};

@@ -11,7 +11,7 @@ use super::path::ValidPath;
 use super::signal::{
     self, AirConditions, Arrival, ImpulseResponse, ImpulseResponseOptions, RoomParameters,
 };
-use super::{AcousticScene, TraceOptions, TraceStats};
+use super::{AcousticScene, CellAssignment, TraceOptions, TraceStats};
 use crate::scene::{Bands, BAND_COUNT, OCTAVE_BANDS_HZ};
 use crate::{Error, Result};
 
@@ -35,6 +35,9 @@ pub struct SimulationOptions {
     /// Energy (relative to the source, per band) below which a frustum
     /// spawns no more frusta.
     pub energy_threshold: f32,
+    /// How sub-frusta are handed to triangles: `conservative` (complete) or
+    /// `sampled` (the dissertation's sample rays: bounded work).
+    pub cells: CellAssignment,
     /// Octave band centres to compute, a subset of 63 Hz..8 kHz.
     pub bands_hz: Vec<f32>,
     /// Air absorption (ISO 9613-1); `None` turns it off.
@@ -51,6 +54,7 @@ impl Default for SimulationOptions {
             sampling: 8,
             primary_split: 2,
             energy_threshold: 1e-6,
+            cells: CellAssignment::Conservative,
             bands_hz: OCTAVE_BANDS_HZ.to_vec(),
             air: Some(AirConditions::default()),
             sample_rate: 48_000,
@@ -125,6 +129,7 @@ impl SimulationOptions {
             primary_split: self.primary_split,
             energy_threshold: self.energy_threshold,
             active_bands,
+            cells: self.cells,
         })
     }
 }

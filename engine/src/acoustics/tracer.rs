@@ -39,6 +39,24 @@ pub struct TraceOptions {
     pub energy_threshold: f32,
     /// Bands that count for the energy threshold.
     pub active_bands: [bool; BAND_COUNT],
+    /// How cells are handed to triangles.
+    pub cells: CellAssignment,
+}
+
+/// How a frustum's cells (sub-frusta) are handed to the triangles they meet.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CellAssignment {
+    /// To every triangle the cell touches that no covering triangle hides:
+    /// every image source is proposed (complete recall), at the cost of
+    /// many frusta where triangles are small next to cells.
+    #[default]
+    Conservative,
+    /// To the triangles hit first by the cell's sample rays (its four
+    /// corners and its centre), as in the dissertation: bounded work per
+    /// frustum, and paths through features smaller than a cell may be
+    /// missed (never invented: validation stays exact).
+    Sampled,
 }
 
 impl Default for TraceOptions {
@@ -49,6 +67,7 @@ impl Default for TraceOptions {
             primary_split: 2,
             energy_threshold: 1e-6,
             active_bands: [true; BAND_COUNT],
+            cells: CellAssignment::Conservative,
         }
     }
 }
@@ -92,6 +111,9 @@ struct Scratch {
     touched: Vec<(u32, u32)>,
     rects: Vec<[u32; 4]>,
     stack: Vec<u32>,
+    /// Nearest `(depth, group)` per sample ray: `(N+1)^2` cell corners,
+    /// then `N^2` cell centres ([`CellAssignment::Sampled`]).
+    samples: Vec<(f64, u32)>,
     history: Vec<(u32, Event)>,
     pending: Vec<Pending>,
 }
@@ -198,11 +220,19 @@ fn expand(
     scratch.cover.clear();
     scratch.cover.resize(n * n, f64::INFINITY);
     scratch.contacts.clear();
+    let sampled = options.cells == CellAssignment::Sampled;
+    scratch.samples.clear();
+    if sampled {
+        scratch
+            .samples
+            .resize((n + 1) * (n + 1) + n * n, (f64::INFINITY, NO_GROUP));
+    }
     let cull = BoxCull::new(f, (scale * 1e-6) as f32);
     let Scratch {
         cover,
         contacts,
         stack,
+        samples,
         ..
     } = scratch;
     for_each_triangle(input.bvh, input.surfaces, &cull, stack, |i| {
@@ -211,11 +241,37 @@ fn expand(
             return;
         }
         stats.triangle_tests += 1;
-        classify(f, input.surfaces, corners, group, n, scale, cover, contacts);
+        let target = if sampled {
+            Target::Samples(samples)
+        } else {
+            Target::Cells(cover, contacts)
+        };
+        classify(f, input.surfaces, corners, group, n, scale, target);
     });
+    scratch.touched.clear();
+    if sampled {
+        let samples = &scratch.samples;
+        for i in 0..n {
+            for j in 0..n {
+                let cell = (i * n + j) as u32;
+                let corner = |a: usize, b: usize| samples[a * (n + 1) + b].1;
+                let centre = samples[(n + 1) * (n + 1) + i * n + j].1;
+                for g in [
+                    corner(i, j),
+                    corner(i + 1, j),
+                    corner(i, j + 1),
+                    corner(i + 1, j + 1),
+                    centre,
+                ] {
+                    if g != NO_GROUP && Some(g) != last_group {
+                        scratch.touched.push((g, cell));
+                    }
+                }
+            }
+        }
+    }
     // A contact counts unless a covering triangle lies wholly in front of
     // it over the whole cell.
-    scratch.touched.clear();
     let cover = &scratch.cover;
     scratch.touched.extend(
         scratch
@@ -296,10 +352,19 @@ fn spawn(
     scratch.rects = rects;
 }
 
+/// What [`classify`] records a triangle into.
+enum Target<'a> {
+    /// Cover depths per cell and `(cell, group, depth)` contacts
+    /// ([`CellAssignment::Conservative`]).
+    Cells(&'a mut [f64], &'a mut Vec<(u32, u32, f64)>),
+    /// Nearest hit per sample ray ([`CellAssignment::Sampled`]).
+    Samples(&'a mut [(f64, u32)]),
+}
+
 /// Classifies one triangle against the cells of frustum `f`: records a
 /// contact for every cell it touches and lowers the cover depth of every
-/// cell it fully covers.
-#[allow(clippy::too_many_arguments)]
+/// cell it fully covers, or, sampling, records it where it is the nearest
+/// hit of a sample ray.
 fn classify(
     f: &Frustum,
     surfaces: &Surfaces,
@@ -307,8 +372,7 @@ fn classify(
     group: u32,
     n: usize,
     scale: f64,
-    cover: &mut [f64],
-    contacts: &mut Vec<(u32, u32, f64)>,
+    target: Target,
 ) {
     let plane = surfaces.group(group).plane;
     let apex_distance = plane.distance(f.apex);
@@ -369,10 +433,49 @@ fn classify(
         edges[k] = (normal, normal.dot(a));
     }
     let edges = &edges[..count];
+    let step = 1.0 / n as f64;
+    let plane_offset = -apex_distance;
+    let (cover, contacts) = match target {
+        Target::Cells(cover, contacts) => (cover, contacts),
+        Target::Samples(samples) => {
+            let hit = |q: DVec2| -> Option<f64> {
+                if edges
+                    .iter()
+                    .any(|&(normal, offset)| normal.dot(q) - offset < -MARGIN)
+                {
+                    return None;
+                }
+                let d = f.direction(q.x, q.y);
+                let depth = plane_offset / plane.normal.dot(d);
+                let valid = f
+                    .near
+                    .as_ref()
+                    .is_none_or(|near| near.distance(f.apex + d * depth) > 1e-9 * scale);
+                (depth > 0.0 && valid).then_some(depth)
+            };
+            let mut record = |k: usize, q: DVec2| {
+                if let Some(depth) = hit(q) {
+                    if depth < samples[k].0 {
+                        samples[k] = (depth, group);
+                    }
+                }
+            };
+            for i in i0..=i1 + 1 {
+                for j in j0..=j1 + 1 {
+                    record(i * (n + 1) + j, DVec2::new(i as f64, j as f64) * step);
+                }
+            }
+            for i in i0..=i1 {
+                for j in j0..=j1 {
+                    let q = DVec2::new(i as f64 + 0.5, j as f64 + 0.5) * step;
+                    record((n + 1) * (n + 1) + i * n + j, q);
+                }
+            }
+            return;
+        }
+    };
     let depth = w.iter().map(|q| q.z).fold(f64::INFINITY, f64::min).max(0.0);
     let can_cover = wholly_valid && !clipped;
-    let step = 1.0 / nf;
-    let plane_offset = -apex_distance;
     for i in i0..=i1 {
         for j in j0..=j1 {
             let c = [
