@@ -64,11 +64,23 @@ impl ValidPath {
 }
 
 /// Legs are traced from just after their start (a surface point) to just
-/// past their end, as fractions of the leg, so the test is scale-free: a
-/// leg never re-hits the surface it leaves, and still finds the one it ends
-/// on when rounding puts the end point a hair behind it.
+/// past their end, as fractions of the leg, so the test is scale-free, and
+/// still finds the surface a leg ends on when rounding puts the end point a
+/// hair behind it. Hits on the plane group a leg leaves are skipped (a
+/// straight leg cannot cross its starting plane again: such a hit is
+/// rounding), so grazing legs are not rejected.
 const LEG_START: f32 = 1e-5;
 const LEG_END_SLACK: f32 = 1e-4;
+/// Rounding tolerance of a leg: this many single-precision ulps of the
+/// coordinates' magnitude. Ray-triangle distances are computed in `f32`, so
+/// on a leg of a few millimetres far from the origin the relative error of
+/// `t` exceeds [`LEG_END_SLACK`].
+const LEG_END_ULPS: f64 = 64.0;
+/// A point this close to a plane (relative to the coordinates' magnitude)
+/// lies on it: f64 rounding of the constructed points.
+const ON_PLANE: f64 = 1e-12;
+/// Bound on the hits skipped on the group a leg leaves (coplanar duplicates).
+const MAX_SKIPPED_HITS: usize = 8;
 
 /// Checks whether `events` is a real specular path from `source` to
 /// `listener` and, if so, builds it.
@@ -99,6 +111,15 @@ pub fn validate(
         let plane = surfaces.group(events[i].group()).plane;
         let (from, to) = (images[i + 1], points[i + 2]);
         let (df, dt) = (plane.distance(from), plane.distance(to));
+        // The next surface point already on this plane: both events at one
+        // point, on the edge between two planes (checked by the legs
+        // below). A listener on the plane is no such edge.
+        if i + 1 < events.len()
+            && dt.abs() <= ON_PLANE * surfaces.scale().max(to.abs().max_element())
+        {
+            points[i + 1] = to;
+            continue;
+        }
         // The plane must separate the image from the point: otherwise the
         // line never reaches the surface between them.
         if (df * dt).partial_cmp(&0.0) != Some(std::cmp::Ordering::Less) {
@@ -111,18 +132,52 @@ pub fn validate(
     for leg in 0..=events.len() {
         let (a, b) = (points[leg], points[leg + 1]);
         let ray = Ray::segment(a.as_vec3(), b.as_vec3());
+        // The group this leg leaves, if it starts on a surface.
+        let leaving = leg.checked_sub(1).map(|i| events[i].group());
+        let magnitude = a.abs().max_element().max(b.abs().max_element());
+        // Rounding of the f32 ray queries, in metres and as a fraction of
+        // the leg.
+        let tol = LEG_END_ULPS * f64::from(f32::EPSILON) * magnitude;
+        let len = a.distance(b);
+        let tol_t = (tol / len.max(f64::MIN_POSITIVE)) as f32;
+        // A leg leaving a surface ignores hits within rounding of its start
+        // (the edge it may leave from).
+        let start = if leaving.is_some() {
+            LEG_START.max(tol_t)
+        } else {
+            LEG_START
+        };
         if let Some(e) = events.get(leg) {
-            let hit = bvh.closest_hit(&ray.with_range(LEG_START, 1.0 + LEG_END_SLACK))?;
-            if surfaces.group_of(hit.object, hit.triangle) != e.group() {
-                return None;
-            }
+            // A leg ending on the edge between two planes (a path through a
+            // corner reflector's edge, which then has a zero-length leg)
+            // may hit either side there: it is checked against the
+            // triangles of its own group instead.
+            let (object, triangle) = if len <= tol {
+                surfaces.triangle_at(e.group(), b, tol)?
+            } else {
+                let slack = LEG_END_SLACK.max(tol_t);
+                let hit = first_hit(bvh, surfaces, &ray, start, 1.0 + slack, leaving)?;
+                if surfaces.group_of(hit.object, hit.triangle) == e.group() {
+                    (hit.object, hit.triangle)
+                } else if (1.0 - f64::from(hit.t)) * len <= tol {
+                    surfaces.triangle_at(e.group(), b, tol)?
+                } else {
+                    return None;
+                }
+            };
             vertices.push(PathVertex {
                 event: *e,
-                object: hit.object,
-                triangle: hit.triangle,
+                object,
+                triangle,
                 point: b,
             });
-        } else if bvh.any_hit(&ray.with_range(LEG_START, 1.0 - LEG_START)) {
+        } else if leaving.is_none() {
+            if bvh.any_hit(&ray.with_range(LEG_START, 1.0 - LEG_START)) {
+                return None;
+            }
+        } else if start < 1.0 - LEG_START
+            && first_hit(bvh, surfaces, &ray, start, 1.0 - LEG_START, leaving).is_some()
+        {
             return None;
         }
     }
@@ -132,4 +187,67 @@ pub fn validate(
         vertices,
         length,
     })
+}
+
+/// The closest hit on `ray` within `[t_min, t_max]` that is not on group
+/// `skip`; after [`MAX_SKIPPED_HITS`] skipped hits, the last of them (so
+/// the caller rejects the leg either way).
+fn first_hit(
+    bvh: &SceneBvh,
+    surfaces: &Surfaces,
+    ray: &Ray,
+    mut t_min: f32,
+    t_max: f32,
+    skip: Option<u32>,
+) -> Option<crate::query::SceneHit> {
+    let mut last = None;
+    for _ in 0..MAX_SKIPPED_HITS {
+        let hit = bvh.closest_hit(&ray.with_range(t_min, t_max))?;
+        if Some(surfaces.group_of(hit.object, hit.triangle)) != skip {
+            return Some(hit);
+        }
+        t_min = next_up(hit.t.max(t_min));
+        last = Some(hit);
+    }
+    last
+}
+
+/// Removes, from paths sorted by length, every path that is another one
+/// met in a different order: the same image source and length, which
+/// happens only when a path runs through the edge between two planes (both
+/// orders of the two reflections there are valid). Of each set, the one
+/// with the smallest event sequence is kept, so the result does not depend
+/// on which orders were proposed.
+pub fn dedup_paths(paths: &mut Vec<ValidPath>) {
+    let mut kept: Vec<ValidPath> = Vec::with_capacity(paths.len());
+    for p in paths.drain(..) {
+        let tol = 1e-9 * p.length.max(1e-3);
+        // Sorted by length: only the tail within `tol` can match.
+        let same = kept
+            .iter()
+            .enumerate()
+            .rev()
+            .take_while(|(_, k)| p.length - k.length <= tol)
+            .find(|(_, k)| k.image_source.distance(p.image_source) <= tol)
+            .map(|(i, _)| i);
+        match same {
+            Some(i) => {
+                let events = |q: &ValidPath| q.vertices.iter().map(|v| v.event).collect::<Vec<_>>();
+                if events(&p) < events(&kept[i]) {
+                    kept[i] = p;
+                }
+            }
+            None => kept.push(p),
+        }
+    }
+    *paths = kept;
+}
+
+/// The next `f32` above a positive `t` (`f32::next_up` needs Rust 1.86).
+fn next_up(t: f32) -> f32 {
+    if t > 0.0 && t.is_finite() {
+        f32::from_bits(t.to_bits() + 1)
+    } else {
+        f32::MIN_POSITIVE
+    }
 }

@@ -10,7 +10,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::path::{validate, Event, ValidPath};
+use super::path::{dedup_paths, validate, Event, ValidPath};
 use super::surfaces::Surfaces;
 use crate::query::SceneBvh;
 use crate::scene::Material;
@@ -55,6 +55,7 @@ pub fn image_sources(
         }));
     }
     paths.sort_by(|a, b| a.length.total_cmp(&b.length));
+    dedup_paths(&mut paths);
     paths
 }
 

@@ -3,7 +3,7 @@
 
 use glam::{DVec3, Vec3};
 
-use super::path::{validate, Event, ValidPath};
+use super::path::{dedup_paths, validate, Event, ValidPath};
 use super::surfaces::Surfaces;
 use super::tracer::{trace, TraceInput, TraceOptions, TraceStats};
 use crate::bvh::{BuildOptions, UpdateReport};
@@ -112,6 +112,7 @@ impl AcousticScene {
                     })
                     .collect();
                 found.sort_by(|a, b| a.length.total_cmp(&b.length));
+                dedup_paths(&mut found);
                 found
             })
             .collect();

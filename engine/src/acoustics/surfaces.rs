@@ -66,6 +66,8 @@ pub struct Surfaces {
     slot_group: Vec<u32>,
     /// Group of each triangle, in mesh order (for ray hits).
     mesh_group: Vec<u32>,
+    /// Leaf-order slot (within its object) of each triangle, in mesh order.
+    mesh_slot: Vec<u32>,
     groups: Vec<SurfaceGroup>,
     /// Length of the scene box's diagonal: the scale of every tolerance.
     scale: f64,
@@ -107,10 +109,12 @@ impl Surfaces {
         };
         let (slot_group, groups) = group_planes(&corners, &materials, scale);
         let mut mesh_group = vec![NO_GROUP; total as usize];
+        let mut mesh_slot = vec![0; total as usize];
         for (o, i) in bvh.instances.iter().enumerate() {
             let base = object_base[o] as usize;
             for (slot, &t) in i.bvh.prim_ids().iter().enumerate() {
                 mesh_group[base + t as usize] = slot_group[base + slot];
+                mesh_slot[base + t as usize] = slot as u32;
             }
         }
         Self {
@@ -118,6 +122,7 @@ impl Surfaces {
             corners,
             slot_group,
             mesh_group,
+            mesh_slot,
             groups,
             scale,
         }
@@ -156,6 +161,32 @@ impl Surfaces {
     #[inline]
     pub fn group_of(&self, object: u32, triangle: u32) -> u32 {
         self.mesh_group[self.object_base[object as usize] as usize + triangle as usize]
+    }
+
+    /// A triangle of `group` containing `p` (a point on the group's plane)
+    /// to within `tol` metres, as `(object, mesh-order triangle)`. A linear
+    /// scan: for points on an edge between planes, where a ray query
+    /// reports either side.
+    pub fn triangle_at(&self, group: u32, p: DVec3, tol: f64) -> Option<(u32, u32)> {
+        let flat = (0..self.mesh_group.len()).find(|&i| {
+            if self.mesh_group[i] != group {
+                return false;
+            }
+            let object = self.object_base.partition_point(|&b| b as usize <= i) - 1;
+            let slot = self.mesh_slot[i] as usize + self.object_base[object] as usize;
+            let [a, b, c] = self.corners[slot].map(|q| DVec3::from(glam::Vec3::from(q)));
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            [(a, b), (b, c), (c, a)].iter().all(|&(u, v)| {
+                let edge = v - u;
+                let len = edge.length();
+                len > 0.0 && edge.cross(p - u).dot(n) / len >= -tol
+            })
+        })?;
+        let object = self.object_base.partition_point(|&b| b as usize <= flat) - 1;
+        Some((
+            object as u32,
+            (flat - self.object_base[object] as usize) as u32,
+        ))
     }
 }
 
