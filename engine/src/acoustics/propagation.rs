@@ -48,13 +48,15 @@ pub struct SimulationOptions {
 }
 
 impl Default for SimulationOptions {
+    /// The tracer's defaults, all bands, air at 20 °C and 50 % RH, 48 kHz mono.
     fn default() -> Self {
+        let trace = TraceOptions::default();
         Self {
-            max_order: 4,
-            sampling: 8,
-            primary_split: 2,
-            energy_threshold: 1e-6,
-            cells: CellAssignment::Conservative,
+            max_order: trace.max_order,
+            sampling: trace.sampling,
+            primary_split: trace.primary_split,
+            energy_threshold: trace.energy_threshold,
+            cells: trace.cells,
             bands_hz: OCTAVE_BANDS_HZ.to_vec(),
             air: Some(AirConditions::default()),
             sample_rate: 48_000,
