@@ -4,6 +4,10 @@
 //! The test is conservative (a box is dropped only when it lies wholly
 //! outside one side plane or behind the near plane), which is all
 //! correctness needs: the exact work happens per triangle in window space.
+//! Children are visited nearest first by the frustum's depth `s`, and a box
+//! whose nearest point lies beyond the caller's stop depth is skipped: once
+//! every cell is covered (or every sample ray has hit), nothing farther can
+//! matter.
 
 use glam::{Vec3A, Vec4};
 
@@ -18,8 +22,10 @@ use crate::query::SceneBvh;
 /// `normals[i] · p < offsets[i] - slack`.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BoxCull {
-    normals: [Vec3A; 5],
-    offsets: [f32; 5],
+    /// Four side planes, the near plane, then the depth `s` as
+    /// `normals[5] · p - offsets[5]` (moved between frames like a plane).
+    normals: [Vec3A; 6],
+    offsets: [f32; 6],
     planes: usize,
     slack: f32,
 }
@@ -27,8 +33,11 @@ pub(crate) struct BoxCull {
 impl BoxCull {
     pub(crate) fn new(f: &Frustum, slack: f32) -> Self {
         let apex = f.apex.as_vec3a();
-        let mut normals = [Vec3A::ZERO; 5];
-        let mut offsets = [0.0; 5];
+        let mut normals = [Vec3A::ZERO; 6];
+        let mut offsets = [0.0; 6];
+        let depth = f.depth_gradient();
+        normals[5] = depth.as_vec3a();
+        offsets[5] = depth.dot(f.apex) as f32;
         for (i, n) in f.side_normals().iter().enumerate() {
             normals[i] = n.normalize().as_vec3a();
             offsets[i] = normals[i].dot(apex);
@@ -52,7 +61,7 @@ impl BoxCull {
     fn in_frame(&self, to_object: &RigidTransform) -> Self {
         let to_world = to_object.inverse();
         let mut out = *self;
-        for i in 0..self.planes {
+        for i in (0..self.planes).chain([5]) {
             let n = to_object.transform_vector(self.normals[i]);
             // A point p' in the object frame is to_world(p') in the world.
             out.offsets[i] = self.offsets[i] - self.normals[i].dot(to_world.translation.into());
@@ -69,6 +78,30 @@ impl BoxCull {
             let far = Vec3A::select(n.cmpgt(Vec3A::ZERO), b.max, b.min);
             n.dot(far) >= self.offsets[i] - self.slack
         })
+    }
+
+    /// The smallest depth `s` over box `b` (a lower bound, in f32).
+    #[inline]
+    fn near_depth(&self, b: &Aabb) -> f32 {
+        let n = self.normals[5];
+        let near = Vec3A::select(n.cmpgt(Vec3A::ZERO), b.min, b.max);
+        n.dot(near) - self.offsets[5]
+    }
+
+    /// The smallest depth over each of a wide node's four slots.
+    #[inline]
+    fn near_depth4(&self, node: &Node4) -> Vec4 {
+        let n = self.normals[5];
+        let mut dot = Vec4::ZERO;
+        for axis in 0..3 {
+            let near = if n[axis] > 0.0 {
+                node.lo[axis]
+            } else {
+                node.hi[axis]
+            };
+            dot += near * n[axis];
+        }
+        dot - Vec4::splat(self.offsets[5])
     }
 
     /// Which of a wide node's four slots may overlap the frustum, as a
@@ -93,23 +126,26 @@ impl BoxCull {
     }
 }
 
-/// Calls `visit(i)` with the flat [`Surfaces`] index of every triangle in a
-/// leaf whose box may overlap the frustum. `stack` is scratch space.
-pub(crate) fn for_each_triangle(
+/// Calls `visit(first, count)` with the flat [`Surfaces`] indices of the
+/// triangles of every leaf whose box may overlap the frustum and starts
+/// nearer than the stop depth, which `visit` returns (infinity: no stop).
+/// `stack` is scratch space.
+pub(crate) fn for_each_leaf(
     bvh: &SceneBvh,
     surfaces: &Surfaces,
     cull: &BoxCull,
-    stack: &mut Vec<u32>,
-    mut visit: impl FnMut(usize),
+    stack: &mut Vec<(u32, f32)>,
+    mut visit: impl FnMut(usize, usize) -> f64,
 ) {
     let top = &bvh.top;
     if top.nodes.is_empty() {
         return;
     }
+    let mut stop = f32::INFINITY;
     let mut top_stack = vec![0u32];
     while let Some(i) = top_stack.pop() {
         let node = &top.nodes[i as usize];
-        if !cull.overlaps(&node.aabb()) {
+        if !cull.overlaps(&node.aabb()) || cull.near_depth(&node.aabb()) > stop {
             continue;
         }
         if !node.is_leaf() {
@@ -130,21 +166,49 @@ pub(crate) fn for_each_triangle(
                 continue;
             }
             stack.clear();
-            stack.push(0);
-            while let Some(n) = stack.pop() {
+            stack.push((0, f32::NEG_INFINITY));
+            while let Some((n, depth)) = stack.pop() {
+                if depth > stop {
+                    continue;
+                }
                 let node = &nodes[n as usize];
+                let depths = local.near_depth4(node);
                 let mut mask = local.overlaps4(node);
+                // Leaves are visited at once, nearest first; inner nodes are
+                // pushed farthest first, so the nearest is taken next.
+                let mut slots = [(0usize, 0.0f32); 4];
+                let mut k = 0;
                 while mask != 0 {
                     let s = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
-                    if node.is_leaf_slot(s) {
+                    slots[k] = (s, depths[s]);
+                    k += 1;
+                }
+                let slots = &mut slots[..k];
+                slots.sort_unstable_by(|a, b| a.1.total_cmp(&b.1));
+                for &(s, d) in slots.iter() {
+                    if node.is_leaf_slot(s) && d <= stop {
                         let first = base + node.child[s] as usize;
-                        (first..first + node.count[s] as usize).for_each(&mut visit);
-                    } else if node.is_inner_slot(s) {
-                        stack.push(node.child[s]);
+                        stop = stop_depth(visit(first, node.count[s] as usize));
+                    }
+                }
+                for &(s, d) in slots.iter().rev() {
+                    if node.is_inner_slot(s) && d <= stop {
+                        stack.push((node.child[s], d));
                     }
                 }
             }
         }
+    }
+}
+
+/// The caller's stop depth as a box bound: rounded up, so that no box that
+/// could hold something nearer is skipped.
+fn stop_depth(d: f64) -> f32 {
+    let d = d * (1.0 + 1e-6);
+    if d.is_finite() {
+        d as f32 * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE
+    } else {
+        f32::INFINITY
     }
 }

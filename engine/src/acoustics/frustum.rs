@@ -104,6 +104,11 @@ impl Frustum {
         self.to_window * (p - self.apex)
     }
 
+    /// The gradient of the depth `s`: `s(p) = depth_gradient() · (p - apex)`.
+    pub fn depth_gradient(&self) -> DVec3 {
+        self.to_window.row(2)
+    }
+
     /// The direction through window point `(u, v)`.
     #[inline]
     pub fn direction(&self, u: f64, v: f64) -> DVec3 {

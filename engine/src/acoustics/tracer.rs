@@ -17,7 +17,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::cull::{for_each_triangle, BoxCull};
+use super::cull::{for_each_leaf, BoxCull};
 use super::frustum::Frustum;
 use super::merge::merge_cells;
 use super::path::Event;
@@ -110,7 +110,7 @@ struct Scratch {
     /// `(group, cell)` pairs that survive occlusion.
     touched: Vec<(u32, u32)>,
     rects: Vec<[u32; 4]>,
-    stack: Vec<u32>,
+    stack: Vec<(u32, f32)>,
     /// Nearest `(depth, group)` per sample ray: `(N+1)^2` cell corners,
     /// then `N^2` cell centres ([`CellAssignment::Sampled`]).
     samples: Vec<(f64, u32)>,
@@ -235,18 +235,27 @@ fn expand(
         samples,
         ..
     } = scratch;
-    for_each_triangle(input.bvh, input.surfaces, &cull, stack, |i| {
-        let (corners, group) = input.surfaces.slot(i);
-        if group == NO_GROUP || Some(group) == last_group {
-            return;
+    for_each_leaf(input.bvh, input.surfaces, &cull, stack, |first, count| {
+        for i in first..first + count {
+            let (corners, group) = input.surfaces.slot(i);
+            if group == NO_GROUP || Some(group) == last_group {
+                continue;
+            }
+            stats.triangle_tests += 1;
+            let target = if sampled {
+                Target::Samples(samples)
+            } else {
+                Target::Cells(cover, contacts)
+            };
+            classify(f, input.surfaces, corners, group, n, scale, target);
         }
-        stats.triangle_tests += 1;
-        let target = if sampled {
-            Target::Samples(samples)
+        // Nothing beyond the farthest covered cell (or sample hit) can be
+        // handed a cell.
+        if sampled {
+            samples.iter().map(|s| s.0).fold(0.0, f64::max)
         } else {
-            Target::Cells(cover, contacts)
-        };
-        classify(f, input.surfaces, corners, group, n, scale, target);
+            cover.iter().copied().fold(0.0, f64::max)
+        }
     });
     scratch.touched.clear();
     if sampled {
