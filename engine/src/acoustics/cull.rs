@@ -13,6 +13,7 @@ use glam::{Vec3A, Vec4};
 
 use super::frustum::Frustum;
 use super::surfaces::Surfaces;
+use crate::bvh::traverse::STACK_SIZE;
 use crate::bvh::wide::Node4;
 use crate::geometry::{Aabb, RigidTransform};
 use crate::query::SceneBvh;
@@ -142,14 +143,21 @@ pub(crate) fn for_each_leaf(
         return;
     }
     let mut stop = f32::INFINITY;
-    let mut top_stack = vec![0u32];
-    while let Some(i) = top_stack.pop() {
+    // A binary walk holds at most depth + 1 entries; builders keep the
+    // depth within the traversal stack size.
+    let mut top_stack = [0u32; STACK_SIZE];
+    let mut top_len = 1;
+    while top_len > 0 {
+        top_len -= 1;
+        let i = top_stack[top_len];
         let node = &top.nodes[i as usize];
         if !cull.overlaps(&node.aabb()) || cull.near_depth(&node.aabb()) > stop {
             continue;
         }
         if !node.is_leaf() {
-            top_stack.extend([node.first(), node.first() + 1]);
+            top_stack[top_len] = node.first();
+            top_stack[top_len + 1] = node.first() + 1;
+            top_len += 2;
             continue;
         }
         for slot in node.first()..node.first() + node.count() {
