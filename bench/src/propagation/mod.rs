@@ -13,10 +13,10 @@ use frusta_engine::acoustics::path::{Event, ValidPath};
 use frusta_engine::acoustics::propagation::arrival;
 use frusta_engine::acoustics::reference::image_sources;
 use frusta_engine::acoustics::signal::AirConditions;
-use frusta_engine::acoustics::{AcousticScene, TraceOptions};
+use frusta_engine::acoustics::{AcousticScene, CellAssignment, TraceOptions};
 use frusta_engine::scene::BAND_COUNT;
 use glam::DVec3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 pub use scenes::NAMES;
 
@@ -49,17 +49,21 @@ pub struct Args {
     /// Sampling rates N to run instead of the sweep's (repeatable).
     #[arg(long = "sampling")]
     pub samplings: Vec<u32>,
+    /// Don't run anything: print the table (and --plot) of JSON lines saved
+    /// from earlier `--json` runs (repeatable).
+    #[arg(long)]
+    pub from_json: Vec<std::path::PathBuf>,
     /// Don't run the pyroomacoustics peer.
     #[arg(long)]
     pub no_peer: bool,
 }
 
 /// One run: ours at (order, N), or the peer at an order.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Row {
-    pub scene: &'static str,
+    pub scene: String,
     #[serde(rename = "impl")]
-    pub imp: &'static str,
+    pub imp: String,
     pub triangles: usize,
     pub order: u32,
     pub sampling: Option<u32>,
@@ -147,7 +151,33 @@ fn compare(
     }));
 }
 
+fn from_json(args: &Args) -> Result<(), String> {
+    let mut rows = Vec::new();
+    for path in &args.from_json {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        for line in text.lines().filter(|l| l.starts_with('{')) {
+            rows.push(
+                serde_json::from_str::<Row>(line)
+                    .map_err(|e| format!("{}: {e}", path.display()))?,
+            );
+        }
+    }
+    let threads = rows
+        .iter()
+        .find(|r| r.imp == "frusta")
+        .map_or(1, |r| r.threads);
+    print!("{}", table(&rows, threads));
+    if let Some(path) = &args.plot {
+        plot::recall_vs_time(&rows, path)?;
+        eprintln!("plot written to {}", path.display());
+    }
+    Ok(())
+}
+
 pub fn run(args: Args) -> Result<(), String> {
+    if !args.from_json.is_empty() {
+        return from_json(&args);
+    }
     let threads = rayon::current_num_threads();
     let (ns, orders_quick): (&[u32], &[u32]) = if !args.samplings.is_empty() {
         (&args.samplings, &[2, 4])
@@ -214,75 +244,87 @@ pub fn run(args: Args) -> Result<(), String> {
             Reference { order: o, paths }
         });
         if reference.is_none() {
-            eprintln!("[{name}] {events} events per step: no reference (events^1 > {REFERENCE_LIMIT})");
+            eprintln!(
+                "[{name}] {events} events per step: no reference (events^1 > {REFERENCE_LIMIT})"
+            );
         }
 
         // Sampling rates too slow at some order are skipped at higher orders.
-        let mut n_limit = u32::MAX;
-        for &order in &orders {
-            for &n in ns.iter().filter(|&&n| n <= n_limit) {
-                let options = TraceOptions {
-                    max_order: order,
-                    sampling: n,
-                    energy_threshold: 0.0,
-                    ..Default::default()
-                };
-                let t = Instant::now();
-                let mut found = scene.find_paths(bench.source, &[bench.listener], &options);
-                let first = t.elapsed();
-                let mut times = vec![first.as_secs_f64() * 1e3];
-                if first < Duration::from_secs(1) {
-                    for _ in 1..REPEATS {
-                        let t = Instant::now();
-                        found = scene.find_paths(bench.source, &[bench.listener], &options);
-                        times.push(t.elapsed().as_secs_f64() * 1e3);
+        for (cells, imp) in CELL_MODES {
+            let mut n_limit = u32::MAX;
+            for &order in &orders {
+                for &n in ns.iter().filter(|&&n| n <= n_limit) {
+                    let options = TraceOptions {
+                        max_order: order,
+                        sampling: n,
+                        energy_threshold: 0.0,
+                        cells,
+                        ..Default::default()
+                    };
+                    let t = Instant::now();
+                    let mut found = scene.find_paths(bench.source, &[bench.listener], &options);
+                    let first = t.elapsed();
+                    let mut times = vec![first.as_secs_f64() * 1e3];
+                    if first < Duration::from_secs(1) {
+                        for _ in 1..REPEATS {
+                            let t = Instant::now();
+                            found = scene.find_paths(bench.source, &[bench.listener], &options);
+                            times.push(t.elapsed().as_secs_f64() * 1e3);
+                        }
                     }
-                }
-                let time_ms = median_ms(times);
-                let frusta = found.stats.frusta;
-                let traced = &found.paths[0];
-                let mut row = Row {
-                    scene: name,
-                    imp: "frusta",
-                    triangles,
-                    order,
-                    sampling: Some(n),
-                    frusta: Some(frusta),
-                    time_ms,
-                    frusta_per_s_per_thread: Some(frusta as f64 / (time_ms * 1e-3) / threads as f64),
-                    threads,
-                    paths: traced.len(),
-                    exact: None,
-                    recall: None,
-                    false_paths: None,
-                    max_time_error_s: None,
-                    max_energy_error_db: None,
-                    total_energy_error_db: None,
-                    duplicates: None,
-                };
-                if let Some(r) = reference.as_ref().filter(|r| r.order >= order) {
-                    compare(&scene, bench.listener, traced, &r.paths, order, &mut row);
-                    exact_counts.insert((name, order), row.exact.unwrap_or(0));
-                    if row.false_paths != Some(0) || row.recall != Some(1.0) {
-                        eprintln!(
-                            "warning: {name} order {order} N={n}: recall {:.4}, {} false paths",
-                            row.recall.unwrap_or(f64::NAN),
-                            row.false_paths.unwrap_or(0)
-                        );
+                    let time_ms = median_ms(times);
+                    let frusta = found.stats.frusta;
+                    let traced = &found.paths[0];
+                    let mut row = Row {
+                        scene: name.to_string(),
+                        imp: imp.to_string(),
+                        triangles,
+                        order,
+                        sampling: Some(n),
+                        frusta: Some(frusta),
+                        time_ms,
+                        frusta_per_s_per_thread: Some(
+                            frusta as f64 / (time_ms * 1e-3) / threads as f64,
+                        ),
+                        threads,
+                        paths: traced.len(),
+                        exact: None,
+                        recall: None,
+                        false_paths: None,
+                        max_time_error_s: None,
+                        max_energy_error_db: None,
+                        total_energy_error_db: None,
+                        duplicates: None,
+                    };
+                    if let Some(r) = reference.as_ref().filter(|r| r.order >= order) {
+                        compare(&scene, bench.listener, traced, &r.paths, order, &mut row);
+                        exact_counts.insert((name, order), row.exact.unwrap_or(0));
+                        if row.false_paths != Some(0) || row.recall != Some(1.0) {
+                            eprintln!(
+                                "warning: {name} order {order} N={n}: recall {:.4}, {} false paths",
+                                row.recall.unwrap_or(f64::NAN),
+                                row.false_paths.unwrap_or(0)
+                            );
+                        }
                     }
-                }
-                eprintln!(
-                    "[{name}] order {order} N={n}: {frusta} frusta, {time_ms:.1} ms, {} paths",
+                    eprintln!(
+                    "[{name}] {imp} order {order} N={n}: {frusta} frusta, {time_ms:.1} ms, {} paths",
                     row.paths
                 );
-                if args.json {
-                    println!("{}", serde_json::to_string(&row).map_err(|e| e.to_string())?);
-                }
-                rows.push(row);
-                if first > SLOW_RUN {
-                    eprintln!("[{name}] order {order} N={n} took {first:.1?}: larger N skipped from here on");
-                    n_limit = n;
-                    break;
+                    if args.json {
+                        println!(
+                            "{}",
+                            serde_json::to_string(&row).map_err(|e| e.to_string())?
+                        );
+                    }
+                    rows.push(row);
+                    if first > SLOW_RUN {
+                        eprintln!(
+                        "[{name}] {imp} order {order} N={n} took {first:.1?}: this N and larger skipped from here on"
+                    );
+                        n_limit = n.saturating_sub(1);
+                        break;
+                    }
                 }
             }
         }
@@ -312,8 +354,8 @@ pub fn run(args: Args) -> Result<(), String> {
             Ok(outcomes) => {
                 for o in outcomes {
                     let row = Row {
-                        scene: o.scene,
-                        imp: "pyroomacoustics",
+                        scene: o.scene.to_string(),
+                        imp: "pyroomacoustics".to_string(),
                         triangles: o.walls,
                         order: o.order,
                         sampling: None,
@@ -331,7 +373,10 @@ pub fn run(args: Args) -> Result<(), String> {
                         duplicates: Some(o.duplicates),
                     };
                     if args.json {
-                        println!("{}", serde_json::to_string(&row).map_err(|e| e.to_string())?);
+                        println!(
+                            "{}",
+                            serde_json::to_string(&row).map_err(|e| e.to_string())?
+                        );
                     }
                     // Beside our rows of the same scene and order.
                     let at = rows
@@ -364,10 +409,30 @@ fn max_abs(v: &[f64; BAND_COUNT]) -> f64 {
 }
 
 /// The fixed-width table; energy columns give the largest band.
+/// Both ways of handing cells to triangles, with their `impl` names.
+const CELL_MODES: [(CellAssignment, &str); 2] = [
+    (CellAssignment::Conservative, "frusta"),
+    (CellAssignment::Sampled, "frusta-sampled"),
+];
+
 pub fn table(rows: &[Row], threads: usize) -> String {
     let header = [
-        "scene", "impl", "tris", "order", "N", "frusta", "ms", "fr/s/thr", "paths", "exact",
-        "recall", "false", "dt_max s", "dE_max dB", "dEtot dB", "dup",
+        "scene",
+        "impl",
+        "tris",
+        "order",
+        "N",
+        "frusta",
+        "ms",
+        "fr/s/thr",
+        "paths",
+        "exact",
+        "recall",
+        "false",
+        "dt_max s",
+        "dE_max dB",
+        "dEtot dB",
+        "dup",
     ];
     let mut cells = vec![header.map(String::from).to_vec()];
     for r in rows {
@@ -385,8 +450,12 @@ pub fn table(rows: &[Row], threads: usize) -> String {
             opt(r.recall, |x| format!("{x:.4}")),
             opt(r.false_paths, |x| x.to_string()),
             opt(r.max_time_error_s, |x| format!("{x:.1e}")),
-            opt(r.max_energy_error_db.as_ref(), |x| format!("{:.1e}", max_abs(x))),
-            opt(r.total_energy_error_db.as_ref(), |x| format!("{:.3}", max_abs(x))),
+            opt(r.max_energy_error_db.as_ref(), |x| {
+                format!("{:.1e}", max_abs(x))
+            }),
+            opt(r.total_energy_error_db.as_ref(), |x| {
+                format!("{:.3}", max_abs(x))
+            }),
             opt(r.duplicates, |x| x.to_string()),
         ]);
     }
@@ -401,7 +470,13 @@ pub fn table(rows: &[Row], threads: usize) -> String {
             .iter()
             .zip(&widths)
             .enumerate()
-            .map(|(c, (s, w))| if c < 2 { format!("{s:<w$}") } else { format!("{s:>w$}") })
+            .map(|(c, (s, w))| {
+                if c < 2 {
+                    format!("{s:<w$}")
+                } else {
+                    format!("{s:>w$}")
+                }
+            })
             .collect();
         out.push_str(line.join("  ").trim_end());
         out.push('\n');

@@ -23,12 +23,16 @@ pub const COLOR_NAMES: [&str; 6] = ["blue", "orange", "green", "red", "purple", 
 pub fn recall_vs_time(rows: &[Row], path: &Path) -> Result<(), String> {
     let pts: Vec<&Row> = rows
         .iter()
-        .filter(|r| r.imp == "frusta" && r.recall.is_some() && r.time_ms > 0.0)
+        .filter(|r| r.imp.starts_with("frusta") && r.recall.is_some() && r.time_ms > 0.0)
         .collect();
     let (lo, hi) = pts.iter().fold((f64::MAX, f64::MIN), |(lo, hi), r| {
         (lo.min(r.time_ms), hi.max(r.time_ms))
     });
-    let (lo, hi) = if pts.is_empty() { (0.1, 10.0) } else { (lo / 1.5, hi * 1.5) };
+    let (lo, hi) = if pts.is_empty() {
+        (0.1, 10.0)
+    } else {
+        (lo / 1.5, hi * 1.5)
+    };
     let e = |e: DrawingAreaErrorKind<_>| format!("plot: {e:?}");
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
@@ -38,7 +42,10 @@ pub fn recall_vs_time(rows: &[Row], path: &Path) -> Result<(), String> {
         .map_err(e)?;
     // Frame and guide lines at recall 0.5, 0.9 and 1 (no labels).
     chart
-        .draw_series(std::iter::once(Rectangle::new([(lo, 0.0), (hi, 1.05)], BLACK)))
+        .draw_series(std::iter::once(Rectangle::new(
+            [(lo, 0.0), (hi, 1.05)],
+            BLACK,
+        )))
         .map_err(e)?;
     for y in [0.5, 0.9, 1.0] {
         chart

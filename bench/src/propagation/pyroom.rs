@@ -58,7 +58,11 @@ pub fn walls(scene: &Scene) -> (Vec<[[f32; 3]; 3]>, f32) {
             tris.push([a.to_array(), b.to_array(), c.to_array()]);
         }
     }
-    let mean = if area_sum > 0.0 { weighted / area_sum } else { 0.0 };
+    let mean = if area_sum > 0.0 {
+        weighted / area_sum
+    } else {
+        0.0
+    };
     (tris, mean as f32)
 }
 
@@ -119,7 +123,10 @@ pub fn run(jobs: &[Job]) -> Result<Vec<Outcome>, String> {
     let mut outcomes = Vec::new();
     for (j, r) in jobs.iter().zip(rooms) {
         if let Some(e) = r.get("error") {
-            eprintln!("warning: pyroomacoustics on {} order {}: {e}", j.scene, j.order);
+            eprintln!(
+                "warning: pyroomacoustics on {} order {}: {e}",
+                j.scene, j.order
+            );
             continue;
         }
         let num = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
