@@ -1,5 +1,5 @@
 //! `frusta-engine`: triangle scenes, bounding volume hierarchies that build,
-//! refit and rebuild, and robust ray queries.
+//! refit and rebuild, robust ray queries, and sound propagation.
 //!
 //! The crate is organised by concept:
 //! - [`geometry`]: boxes, rays, the watertight ray/triangle test, meshes and
@@ -11,8 +11,10 @@
 //!   and generators for the bundled scenes;
 //! - [`query`]: the two-level scene acceleration structure and the ray
 //!   queries (closest hit, any hit, batched) answered on it;
-//! - [`acoustics`]: turning sound arrivals at a listener into impulse
-//!   responses, room-acoustic parameters, WAV files and auralized audio.
+//! - [`acoustics`]: sound propagation by frustum tracing (specular paths
+//!   validated exactly, the image-source reference) and the impulse
+//!   responses, room-acoustic parameters, WAV files and auralized audio
+//!   built from them.
 //!
 //! ```
 //! use frusta_engine::geometry::{Ray, TriangleMesh};
