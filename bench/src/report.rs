@@ -68,20 +68,31 @@ pub fn table(r: &MeshReport) -> String {
             format!("{:.2e}", x.mismatch_fraction),
         ]);
     }
-    let widths: Vec<usize> = (0..header.len())
+    format!(
+        "mesh {}: {} triangles, {} rays per set, {} threads (ray rates in Mrays/s)\n{}",
+        r.mesh,
+        r.triangles,
+        r.rays,
+        r.threads,
+        aligned(&rows, 1)
+    )
+}
+
+/// Rows (the first is the header) as fixed-width text: the first `left`
+/// columns left-aligned, the rest right-aligned, a rule under the header.
+pub fn aligned(rows: &[Vec<String>], left: usize) -> String {
+    let columns = rows.first().map_or(0, Vec::len);
+    let widths: Vec<usize> = (0..columns)
         .map(|c| rows.iter().map(|r| r[c].len()).max().unwrap_or(0))
         .collect();
-    let mut out = format!(
-        "mesh {}: {} triangles, {} rays per set, {} threads (ray rates in Mrays/s)\n",
-        r.mesh, r.triangles, r.rays, r.threads
-    );
+    let mut out = String::new();
     for (i, row) in rows.iter().enumerate() {
         let cells: Vec<String> = row
             .iter()
             .zip(&widths)
             .enumerate()
             .map(|(c, (s, w))| {
-                if c == 0 {
+                if c < left {
                     format!("{s:<w$}")
                 } else {
                     format!("{s:>w$}")

@@ -459,31 +459,8 @@ pub fn table(rows: &[Row], threads: usize) -> String {
             opt(r.duplicates, |x| x.to_string()),
         ]);
     }
-    let widths: Vec<usize> = (0..header.len())
-        .map(|c| cells.iter().map(|r| r[c].len()).max().unwrap_or(0))
-        .collect();
-    let mut out = format!(
-        "propagation: {threads} threads (fr/s/thr = frusta / wall time / threads; energy errors: largest |dB| over the 8 bands; peer: single-threaded)\n"
-    );
-    for (i, row) in cells.iter().enumerate() {
-        let line: Vec<String> = row
-            .iter()
-            .zip(&widths)
-            .enumerate()
-            .map(|(c, (s, w))| {
-                if c < 2 {
-                    format!("{s:<w$}")
-                } else {
-                    format!("{s:>w$}")
-                }
-            })
-            .collect();
-        out.push_str(line.join("  ").trim_end());
-        out.push('\n');
-        if i == 0 {
-            out.push_str(&"-".repeat(widths.iter().sum::<usize>() + 2 * (widths.len() - 1)));
-            out.push('\n');
-        }
-    }
-    out
+    format!(
+        "propagation: {threads} threads (fr/s/thr = frusta / wall time / threads; energy errors: largest |dB| over the 8 bands; peer: single-threaded)\n{}",
+        crate::report::aligned(&cells, 2)
+    )
 }
