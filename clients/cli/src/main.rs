@@ -75,6 +75,7 @@ enum SceneCommand {
 }
 
 fn main() -> ExitCode {
+    restore_default_sigpipe();
     let result = match Cli::parse().command {
         Command::Scene {
             command: SceneCommand::Info { path, json },
@@ -94,5 +95,16 @@ fn main() -> ExitCode {
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Rust ignores SIGPIPE, so `frusta ir | head` would panic in `println!`
+/// once `head` exits; a command-line tool should end quietly instead, as
+/// other Unix tools do.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in `main`, before any other thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }

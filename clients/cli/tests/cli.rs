@@ -193,3 +193,37 @@ fn ir_rejects_bad_input_with_a_message() {
     let out = frusta(&["ir", "--source", "2,3,1.5", "--listener", "1,1,1"]);
     assert!(!out.status.success());
 }
+
+#[cfg(unix)]
+#[test]
+fn a_reader_that_stops_early_does_not_make_frusta_panic() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_frusta"))
+        .args([
+            "ir",
+            "--scene",
+            SHOEBOX,
+            "--source",
+            "2,3,1.5",
+            "--listener",
+            "7,2,1.2",
+            "--max-order",
+            "6",
+            "--json",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    // 600 kB of JSON: far more than a pipe buffers, so frusta is still
+    // writing when the reader goes.
+    assert!(first.starts_with('{'), "{first}");
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
