@@ -111,3 +111,25 @@ fn l_room_and_two_rooms_recall() {
         );
     }
 }
+
+#[test]
+fn sampled_cells_find_the_box_image_sources_with_fewer_frusta() {
+    let scene = AcousticScene::new(&shoebox(4, 0.2));
+    let (s, l) = (DVec3::new(2.0, 3.5, 1.2), DVec3::new(7.3, 1.9, 1.7));
+    let run = |cells| {
+        let options = TraceOptions {
+            max_order: 4,
+            energy_threshold: 0.0,
+            cells,
+            ..TraceOptions::default()
+        };
+        scene.find_paths(s, &[l], &options)
+    };
+    let sampled = run(frusta_engine::acoustics::CellAssignment::Sampled);
+    let conservative = run(frusta_engine::acoustics::CellAssignment::Conservative);
+    // Walls are large next to cells here, so sample rays miss nothing.
+    assert_eq!(sampled.paths[0].len(), 129);
+    let lengths = |p: &[ValidPath]| p.iter().map(|x| x.length).collect::<Vec<_>>();
+    assert_eq!(lengths(&sampled.paths[0]), lengths(&conservative.paths[0]));
+    assert!(sampled.stats.frusta <= conservative.stats.frusta);
+}

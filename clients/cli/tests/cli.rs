@@ -227,3 +227,35 @@ fn a_reader_that_stops_early_does_not_make_frusta_panic() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+#[test]
+fn ir_binaural_writes_two_channels_and_sampled_cells_run() {
+    let dir = std::env::temp_dir().join(format!("frusta-cli-binaural-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let wav = dir.join("ir.wav");
+    let out = frusta(&[
+        "ir",
+        "--scene",
+        SHOEBOX,
+        "--source",
+        "2,3,1.5",
+        "--listener",
+        "7,2,1.2",
+        "--binaural",
+        "--cells",
+        "sampled",
+        "--sample-rate",
+        "16000",
+        "--out",
+        wav.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let (rate, channels) = frusta_engine::acoustics::signal::read_wav(&wav).unwrap();
+    assert_eq!(rate, 16000);
+    assert_eq!(channels.len(), 2);
+    // The listener faces +X and the source is at its +Y side: the left ear
+    // (first channel) is louder.
+    let energy = |c: &[f32]| c.iter().map(|x| x * x).sum::<f32>();
+    assert!(energy(&channels[0]) > energy(&channels[1]));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -350,3 +350,91 @@ fn sound_path(
         pressure_gain: bands.iter().map(|&b| a.pressure_gain[b]).collect(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_out_of_range_option_is_an_error_naming_it() {
+        let bad = [
+            (
+                "max_order",
+                SimulationOptions {
+                    max_order: MAX_ORDER + 1,
+                    ..Default::default()
+                },
+            ),
+            (
+                "sampling",
+                SimulationOptions {
+                    sampling: 0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "sampling",
+                SimulationOptions {
+                    sampling: 65,
+                    ..Default::default()
+                },
+            ),
+            (
+                "primary_split",
+                SimulationOptions {
+                    primary_split: 0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "energy_threshold",
+                SimulationOptions {
+                    energy_threshold: f32::NAN,
+                    ..Default::default()
+                },
+            ),
+            (
+                "energy_threshold",
+                SimulationOptions {
+                    energy_threshold: 1.0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "bands_hz",
+                SimulationOptions {
+                    bands_hz: vec![],
+                    ..Default::default()
+                },
+            ),
+            (
+                "1234",
+                SimulationOptions {
+                    bands_hz: vec![1234.0],
+                    ..Default::default()
+                },
+            ),
+            (
+                "twice",
+                SimulationOptions {
+                    bands_hz: vec![500.0, 500.0],
+                    ..Default::default()
+                },
+            ),
+        ];
+        for (word, options) in bad {
+            let e = options.trace_options().unwrap_err().to_string();
+            assert!(e.contains(word), "{e} should name {word}");
+        }
+        let t = SimulationOptions {
+            bands_hz: vec![500.0, 1000.0],
+            ..Default::default()
+        }
+        .trace_options()
+        .unwrap();
+        assert_eq!(
+            t.active_bands,
+            [false, false, false, true, true, false, false, false]
+        );
+    }
+}
