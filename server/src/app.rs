@@ -1,124 +1,175 @@
-//! The router and the state its handlers share.
+//! The state handlers share and the one router that also builds the
+//! OpenAPI document.
 
 use std::sync::Arc;
 
-use axum::extract::DefaultBodyLimit;
+use axum::extract::{Request, State};
 use axum::http::Uri;
-use axum::routing::{get, post};
+use axum::middleware::{from_fn_with_state, Next};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
 use axum::Router;
+use tokio::sync::Semaphore;
+use tokio_util::sync::CancellationToken;
+use tokio_util::task::TaskTracker;
+use utoipa::OpenApi;
+use utoipa_axum::router::{OpenApiRouter, UtoipaMethodRouterExt};
+use utoipa_axum::routes;
+use utoipa_swagger_ui::SwaggerUi;
 
-use crate::catalog::{Catalog, LoadedScene};
+use crate::auth::{self, digest};
+use crate::compute::ComputePool;
+use crate::config::{Config, Limits};
 use crate::error::ApiError;
-use crate::routes::{health, rays, scenes};
+use crate::metrics::{self, Metrics};
+use crate::registry::Registry;
+use crate::routes::{
+    health, impulse_responses, materials, objects, occlusion, rays, scenes, stream,
+};
 
-/// Immutable after startup, so handlers share it without locks.
 #[derive(Clone)]
-pub struct AppState {
-    catalog: Arc<Catalog>,
+pub struct AppState(Arc<Inner>);
+
+struct Inner {
+    registry: Registry,
+    limits: Limits,
+    /// SHA-256 digests of the configured keys.
+    api_keys: Vec<String>,
+    metrics: Metrics,
+    compute: ComputePool,
+    streams: Arc<Semaphore>,
+    /// Cancelled on shutdown: streams close with "going away".
+    shutdown: CancellationToken,
+    /// Stream tasks, awaited on shutdown.
+    tasks: TaskTracker,
 }
 
 impl AppState {
-    pub fn new(catalog: Catalog) -> Self {
-        Self {
-            catalog: Arc::new(catalog),
-        }
+    pub fn new(registry: Registry, config: &Config) -> Self {
+        let state = Self(Arc::new(Inner {
+            registry,
+            limits: config.limits.clone(),
+            api_keys: config.api_keys.iter().map(|k| digest(k.trim())).collect(),
+            metrics: Metrics::default(),
+            compute: ComputePool::new(config.limits.max_queued),
+            streams: Arc::new(Semaphore::new(config.limits.max_streams)),
+            shutdown: CancellationToken::new(),
+            tasks: TaskTracker::new(),
+        }));
+        state.refresh_scene_gauges();
+        state
     }
 
-    pub fn catalog(&self) -> &Catalog {
-        &self.catalog
+    pub fn registry(&self) -> &Registry {
+        &self.0.registry
     }
 
-    pub fn scene(&self, id: &str) -> Result<Arc<LoadedScene>, ApiError> {
-        self.catalog
-            .get(id)
-            .cloned()
-            .ok_or_else(|| ApiError::SceneNotFound(id.to_owned()))
+    pub fn limits(&self) -> &Limits {
+        &self.0.limits
+    }
+
+    pub fn api_keys(&self) -> &[String] {
+        &self.0.api_keys
+    }
+
+    pub fn metrics(&self) -> &Metrics {
+        &self.0.metrics
+    }
+
+    pub fn compute(&self) -> &ComputePool {
+        &self.0.compute
+    }
+
+    pub fn streams(&self) -> &Arc<Semaphore> {
+        &self.0.streams
+    }
+
+    pub fn shutdown_token(&self) -> &CancellationToken {
+        &self.0.shutdown
+    }
+
+    pub fn tasks(&self) -> &TaskTracker {
+        &self.0.tasks
+    }
+
+    pub fn refresh_scene_gauges(&self) {
+        let scenes = self.registry().list();
+        let triangles: usize = scenes.iter().map(|e| e.read().scene.triangle_count()).sum();
+        self.metrics().scenes.set(scenes.len() as i64);
+        self.metrics().triangles.set(triangles as i64);
     }
 }
 
-/// Room for [`rays::MAX_RAYS`] rays written out verbosely; axum's 2 MB
-/// default would reject batches well below the ray limit.
-const RAYS_BODY_LIMIT: usize = 32 * 1024 * 1024;
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "frusta",
+        description = "Geometric acoustics: scenes, impulse responses, streams and ray queries. Every error is an RFC 9457 problem document (application/problem+json)."
+    ),
+    tags(
+        (name = "scenes", description = "Upload, inspect, edit and delete scenes"),
+        (name = "acoustics", description = "Impulse responses and streams"),
+        (name = "queries", description = "Ray and visibility queries"),
+    ),
+    modifiers(&BearerAuth)
+)]
+struct ApiDoc;
+
+struct BearerAuth;
+
+impl utoipa::Modify for BearerAuth {
+    fn modify(&self, openapi: &mut utoipa::openapi::OpenApi) {
+        use utoipa::openapi::security::{Http, HttpAuthScheme, SecurityScheme};
+        let components = openapi.components.get_or_insert_with(Default::default);
+        components.add_security_scheme(
+            "api_key",
+            SecurityScheme::Http(Http::new(HttpAuthScheme::Bearer)),
+        );
+    }
+}
 
 pub fn router(state: AppState) -> Router {
+    let (v1, api) = OpenApiRouter::with_openapi(ApiDoc::openapi())
+        .routes(routes!(scenes::list, scenes::create))
+        .routes(routes!(scenes::detail, scenes::delete))
+        .routes(routes!(objects::patch))
+        .routes(routes!(materials::patch))
+        .routes(routes!(impulse_responses::create))
+        .routes(routes!(stream::connect))
+        .routes(routes!(rays::trace).layer(axum::extract::DefaultBodyLimit::max(rays::BODY_LIMIT)))
+        .routes(routes!(occlusion::check))
+        .layer(from_fn_with_state(state.clone(), auth::authenticate))
+        .split_for_parts();
     Router::new()
+        .merge(v1)
         .route("/healthz", get(health::healthz))
-        .route("/v1/scenes", get(scenes::list))
-        .route("/v1/scenes/{id}", get(scenes::detail))
-        .route(
-            "/v1/scenes/{id}/rays",
-            post(rays::trace).layer(DefaultBodyLimit::max(RAYS_BODY_LIMIT)),
-        )
+        .route("/metrics", get(metrics_text))
+        .merge(SwaggerUi::new("/docs").url("/openapi.json", api))
+        .route_layer(from_fn_with_state(state.clone(), metrics::track))
+        .layer(from_fn_with_state(state.clone(), request_timeout))
         .fallback(|uri: Uri| async move { ApiError::RouteNotFound(uri.path().to_owned()) })
         .with_state(state)
 }
 
-#[cfg(test)]
-pub(crate) mod test_support {
-    //! The router over the bundled scenes, loaded once per test binary.
-
-    use std::path::Path;
-    use std::sync::OnceLock;
-
-    use axum::body::Body;
-    use axum::http::{Request, StatusCode};
-    use http_body_util::BodyExt;
-    use tower::ServiceExt;
-
-    use super::*;
-
-    fn state() -> AppState {
-        static STATE: OnceLock<AppState> = OnceLock::new();
-        STATE
-            .get_or_init(|| {
-                let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
-                AppState::new(crate::catalog::load_dir(&dir).expect("bundled scenes"))
-            })
-            .clone()
-    }
-
-    /// Sends one request; returns status, content type and JSON body.
-    pub async fn send(request: Request<Body>) -> (StatusCode, String, serde_json::Value) {
-        let response = router(state()).oneshot(request).await.expect("infallible");
-        let status = response.status();
-        let content_type = response
-            .headers()
-            .get("content-type")
-            .and_then(|v| v.to_str().ok())
-            .unwrap_or_default()
-            .to_owned();
-        let bytes = response
-            .into_body()
-            .collect()
-            .await
-            .expect("body")
-            .to_bytes();
-        let json = serde_json::from_slice(&bytes).expect("JSON body");
-        (status, content_type, json)
-    }
-
-    pub fn get(uri: &str) -> Request<Body> {
-        Request::get(uri).body(Body::empty()).expect("request")
-    }
-
-    pub fn post_json(uri: &str, body: &str) -> Request<Body> {
-        Request::post(uri)
-            .header("content-type", "application/json")
-            .body(Body::from(body.to_owned()))
-            .expect("request")
-    }
+async fn metrics_text(State(state): State<AppState>) -> impl IntoResponse {
+    (
+        [(
+            axum::http::header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
+        state.metrics().render(),
+    )
 }
 
-#[cfg(test)]
-mod tests {
-    use super::test_support::*;
-    use axum::http::StatusCode;
-
-    #[tokio::test]
-    async fn unknown_route_is_a_problem() {
-        let (status, content_type, body) = send(get("/nope")).await;
-        assert_eq!(status, StatusCode::NOT_FOUND);
-        assert_eq!(content_type, "application/problem+json");
-        assert_eq!(body["type"], "urn:frusta:problem:unknown-route");
+/// Caps the time to answer any request; a stream's time after its
+/// upgrade does not count.
+async fn request_timeout(State(state): State<AppState>, request: Request, next: Next) -> Response {
+    let limit = state.limits().request_timeout();
+    match tokio::time::timeout(limit, next.run(request)).await {
+        Ok(response) => response,
+        Err(_) => ApiError::Timeout {
+            seconds: limit.as_secs(),
+        }
+        .into_response(),
     }
 }

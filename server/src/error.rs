@@ -5,7 +5,7 @@
 
 use axum::extract::rejection::JsonRejection;
 use axum::extract::FromRequest;
-use axum::http::{header, StatusCode};
+use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 
@@ -14,6 +14,10 @@ use serde::Serialize;
 pub enum ApiError {
     #[error("no scene with id `{0}`")]
     SceneNotFound(String),
+    #[error("a scene with id `{0}` exists already; delete it first or choose another id")]
+    SceneExists(String),
+    #[error("no object {0}")]
+    UnknownObject(String),
     #[error("no route for {0}")]
     RouteNotFound(String),
     /// The body was not the JSON the route expects; `status` and message
@@ -25,83 +29,147 @@ pub enum ApiError {
     TooManyRays { count: usize, max: usize },
     #[error("ray {index}: {reason}")]
     InvalidRay { index: usize, reason: &'static str },
+    /// Well-formed input the engine cannot use: the message names the field.
+    #[error("{0}")]
+    Invalid(String),
+    /// A request above one of the server's configured limits.
+    #[error("{0}")]
+    LimitExceeded(String),
+    #[error("the simulation needed more than the {limit_ms} ms compute limit; lower max_order or sampling, or use \"cells\": \"sampled\"")]
+    ComputeLimit { limit_ms: u64 },
+    #[error("{0}")]
+    ServerFull(String),
+    #[error("{0}")]
+    NotAcceptable(String),
+    #[error("{0}")]
+    UnsupportedMediaType(String),
+    #[error("missing or unknown API key: send `Authorization: Bearer KEY`")]
+    Unauthorized,
+    #[error("{0}")]
+    Forbidden(String),
+    #[error("the server is busy with {queued} simulations; retry shortly")]
+    Busy { queued: usize },
+    #[error("the request took longer than {seconds} s")]
+    Timeout { seconds: u64 },
     #[error("internal error: {0}")]
     Internal(String),
 }
 
 impl ApiError {
+    pub fn from_engine(e: frusta_engine::Error) -> Self {
+        match e {
+            frusta_engine::Error::UnknownObject(o) => Self::UnknownObject(o),
+            frusta_engine::Error::DeadlineExceeded { limit_ms } => Self::ComputeLimit { limit_ms },
+            e => Self::Invalid(e.to_string()),
+        }
+    }
+
+    pub fn storage(e: crate::store::StoreError) -> Self {
+        Self::Internal(format!("storage: {e}"))
+    }
+
     fn status(&self) -> StatusCode {
         match self {
-            Self::SceneNotFound(_) | Self::RouteNotFound(_) => StatusCode::NOT_FOUND,
+            Self::SceneNotFound(_) | Self::RouteNotFound(_) | Self::UnknownObject(_) => {
+                StatusCode::NOT_FOUND
+            }
+            Self::SceneExists(_) => StatusCode::CONFLICT,
             Self::BadBody { status, .. } => *status,
             Self::TooManyRays { .. } => StatusCode::PAYLOAD_TOO_LARGE,
-            Self::InvalidRay { .. } => StatusCode::UNPROCESSABLE_ENTITY,
+            Self::InvalidRay { .. }
+            | Self::Invalid(_)
+            | Self::LimitExceeded(_)
+            | Self::ComputeLimit { .. } => StatusCode::UNPROCESSABLE_ENTITY,
+            Self::ServerFull(_) => StatusCode::INSUFFICIENT_STORAGE,
+            Self::NotAcceptable(_) => StatusCode::NOT_ACCEPTABLE,
+            Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            Self::Unauthorized => StatusCode::UNAUTHORIZED,
+            Self::Forbidden(_) => StatusCode::FORBIDDEN,
+            Self::Busy { .. } => StatusCode::SERVICE_UNAVAILABLE,
+            Self::Timeout { .. } => StatusCode::GATEWAY_TIMEOUT,
             Self::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         }
     }
 
-    /// Stable machine-readable problem type; a URN because the service
-    /// has no documentation site to dereference.
-    fn kind(&self) -> &'static str {
+    /// Stable machine-readable problem type and its title; a URN because
+    /// the service has no documentation site to dereference.
+    fn kind(&self) -> (&'static str, &'static str) {
         match self {
-            Self::SceneNotFound(_) => "urn:frusta:problem:unknown-scene",
-            Self::RouteNotFound(_) => "urn:frusta:problem:unknown-route",
-            Self::BadBody { .. } => "urn:frusta:problem:bad-body",
-            Self::TooManyRays { .. } => "urn:frusta:problem:too-many-rays",
-            Self::InvalidRay { .. } => "urn:frusta:problem:invalid-ray",
-            Self::Internal(_) => "urn:frusta:problem:internal",
+            Self::SceneNotFound(_) => ("unknown-scene", "Unknown scene"),
+            Self::SceneExists(_) => ("scene-exists", "Scene exists"),
+            Self::UnknownObject(_) => ("unknown-object", "Unknown object"),
+            Self::RouteNotFound(_) => ("unknown-route", "Unknown route"),
+            Self::BadBody { .. } => ("bad-body", "Malformed request body"),
+            Self::TooManyRays { .. } => ("too-many-rays", "Too many rays"),
+            Self::InvalidRay { .. } => ("invalid-ray", "Invalid ray"),
+            Self::Invalid(_) => ("invalid-input", "Invalid input"),
+            Self::LimitExceeded(_) => ("limit-exceeded", "Limit exceeded"),
+            Self::ComputeLimit { .. } => ("compute-limit", "Compute limit exceeded"),
+            Self::ServerFull(_) => ("server-full", "Server full"),
+            Self::NotAcceptable(_) => ("not-acceptable", "Not acceptable"),
+            Self::UnsupportedMediaType(_) => ("unsupported-media-type", "Unsupported media type"),
+            Self::Unauthorized => ("unauthorized", "Unauthorized"),
+            Self::Forbidden(_) => ("forbidden", "Forbidden"),
+            Self::Busy { .. } => ("busy", "Server busy"),
+            Self::Timeout { .. } => ("timeout", "Request timed out"),
+            Self::Internal(_) => ("internal", "Internal error"),
         }
     }
 
-    fn title(&self) -> &'static str {
-        match self {
-            Self::SceneNotFound(_) => "Unknown scene",
-            Self::RouteNotFound(_) => "Unknown route",
-            Self::BadBody { .. } => "Malformed request body",
-            Self::TooManyRays { .. } => "Too many rays",
-            Self::InvalidRay { .. } => "Invalid ray",
-            Self::Internal(_) => "Internal error",
+    /// The RFC 9457 document, also sent over WebSocket streams.
+    pub fn problem(&self) -> Problem {
+        let (kind, title) = self.kind();
+        Problem {
+            kind: format!("urn:frusta:problem:{kind}"),
+            title,
+            status: self.status().as_u16(),
+            detail: self.to_string(),
+            ray_index: match self {
+                Self::InvalidRay { index, .. } => Some(*index),
+                _ => None,
+            },
         }
     }
 }
 
 /// The RFC 9457 body; `ray_index` is an extension member so clients can
 /// point at the offending ray without parsing `detail`.
-#[derive(Serialize)]
-struct Problem {
+#[derive(Debug, Serialize, utoipa::ToSchema)]
+pub struct Problem {
     #[serde(rename = "type")]
-    kind: &'static str,
-    title: &'static str,
-    status: u16,
-    detail: String,
+    pub kind: String,
+    pub title: &'static str,
+    pub status: u16,
+    pub detail: String,
     #[serde(skip_serializing_if = "Option::is_none")]
-    ray_index: Option<usize>,
+    pub ray_index: Option<usize>,
 }
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let status = self.status();
-        if status.is_server_error() {
+        if status.is_server_error() && !matches!(self, Self::Busy { .. }) {
             tracing::error!(error = %self, "request failed");
         }
-        let problem = Problem {
-            kind: self.kind(),
-            title: self.title(),
-            status: status.as_u16(),
-            detail: self.to_string(),
-            ray_index: match self {
-                Self::InvalidRay { index, .. } => Some(index),
-                _ => None,
-            },
-        };
         // Serialising a struct of strings and integers cannot fail.
-        let body = serde_json::to_vec(&problem).unwrap_or_default();
-        (
+        let body = serde_json::to_vec(&self.problem()).unwrap_or_default();
+        let mut response = (
             status,
             [(header::CONTENT_TYPE, "application/problem+json")],
             body,
         )
-            .into_response()
+            .into_response();
+        let headers = response.headers_mut();
+        match self {
+            Self::Unauthorized => {
+                headers.insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
+            }
+            Self::Busy { .. } => {
+                headers.insert(header::RETRY_AFTER, HeaderValue::from_static("1"));
+            }
+            _ => {}
+        }
+        response
     }
 }
 

@@ -1,29 +1,11 @@
-//! `frusta-server`: loads the bundled scenes, builds their acceleration
-//! structures, and answers ray queries over HTTP.
+//! `frusta-server`: see the library for what it serves.
 
-mod app;
-mod catalog;
-mod error;
-mod routes;
-
-use std::net::SocketAddr;
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::Parser;
+use frusta_server::Config;
 use tracing_subscriber::EnvFilter;
-
-#[derive(Parser)]
-#[command(version, about = "Serve ray queries on frusta scenes over HTTP")]
-struct Args {
-    /// Address to listen on.
-    #[arg(long, env = "FRUSTA_ADDR", default_value = "127.0.0.1:8080")]
-    addr: SocketAddr,
-    /// Directory whose `*.json` scenes are loaded at startup.
-    #[arg(long, env = "FRUSTA_SCENES_DIR", default_value = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes"))]
-    scenes_dir: PathBuf,
-}
 
 #[tokio::main]
 async fn main() -> ExitCode {
@@ -32,8 +14,7 @@ async fn main() -> ExitCode {
             EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info")),
         )
         .init();
-    let args = Args::parse();
-    match run(args).await {
+    match run(Config::parse()).await {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             tracing::error!("{e}");
@@ -42,33 +23,31 @@ async fn main() -> ExitCode {
     }
 }
 
-async fn run(args: Args) -> Result<(), String> {
+async fn run(config: Config) -> Result<(), String> {
     let start = Instant::now();
-    let dir = args.scenes_dir.clone();
-    // Loading and BVH building are CPU-bound; keep them off the runtime.
-    let catalog = tokio::task::spawn_blocking(move || catalog::load_dir(&dir))
+    let listener = tokio::net::TcpListener::bind(config.addr)
         .await
-        .map_err(|e| format!("loading scenes panicked: {e}"))?
-        .map_err(|e| format!("cannot read {}: {e}", args.scenes_dir.display()))?;
+        .map_err(|e| format!("cannot listen on {}: {e}", config.addr))?;
+    let opened = config.clone();
+    // Loading and building hierarchies is CPU-bound; keep it off the runtime.
+    let state = tokio::task::spawn_blocking(move || frusta_server::open(&opened))
+        .await
+        .map_err(|e| format!("loading scenes panicked: {e}"))??;
     tracing::info!(
-        scenes = catalog.len(),
+        scenes = state.registry().list().len(),
         seconds = start.elapsed().as_secs_f64(),
-        "scenes loaded"
+        data_dir = %config.data_dir.display(),
+        addr = %config.addr,
+        "listening"
     );
-    let listener = tokio::net::TcpListener::bind(args.addr)
-        .await
-        .map_err(|e| format!("cannot listen on {}: {e}", args.addr))?;
-    tracing::info!(addr = %args.addr, "listening");
-    axum::serve(listener, app::router(app::AppState::new(catalog)))
-        .with_graceful_shutdown(shutdown_signal())
+    frusta_server::serve(state, listener, shutdown_signal())
         .await
         .map_err(|e| format!("server error: {e}"))?;
     tracing::info!("shut down");
     Ok(())
 }
 
-/// Resolves on Ctrl-C or SIGTERM (what container runtimes send), letting
-/// in-flight requests finish.
+/// Resolves on Ctrl-C or SIGTERM (what container runtimes send).
 async fn shutdown_signal() {
     let ctrl_c = async {
         if let Err(e) = tokio::signal::ctrl_c().await {
@@ -94,5 +73,5 @@ async fn shutdown_signal() {
         () = ctrl_c => {},
         () = terminate => {},
     }
-    tracing::info!("shutdown signal received, finishing in-flight requests");
+    tracing::info!("shutdown signal received, finishing in-flight requests and streams");
 }

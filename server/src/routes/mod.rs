@@ -1,5 +1,13 @@
-//! HTTP handlers, one module per resource.
+//! One handler file per resource.
 
 pub mod health;
+pub mod impulse_responses;
+pub mod materials;
+pub mod objects;
+pub mod occlusion;
 pub mod rays;
 pub mod scenes;
+pub mod stream;
+
+#[cfg(test)]
+pub(crate) mod test_support;

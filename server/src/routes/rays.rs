@@ -10,13 +10,17 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use crate::app::AppState;
-use crate::error::{ApiError, JsonBody};
+use crate::error::{ApiError, JsonBody, Problem};
 
 /// Upper bound on rays per request, so one request cannot monopolise the
-/// blocking pool or memory.
+/// compute pool or memory.
 pub const MAX_RAYS: usize = 100_000;
 
-#[derive(Deserialize)]
+/// Room for [`MAX_RAYS`] rays written out verbosely; axum's 2 MB default
+/// would reject batches well below the ray limit.
+pub const BODY_LIMIT: usize = 32 * 1024 * 1024;
+
+#[derive(Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RaysRequest {
     rays: Vec<RayInput>,
@@ -24,7 +28,7 @@ pub struct RaysRequest {
     mode: Mode,
 }
 
-#[derive(Deserialize)]
+#[derive(Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 struct RayInput {
     origin: [f32; 3],
@@ -32,7 +36,7 @@ struct RayInput {
     max_distance: Option<f32>,
 }
 
-#[derive(Clone, Copy, Default, Deserialize)]
+#[derive(Clone, Copy, Default, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "lowercase")]
 enum Mode {
     /// Nearest hit per ray, for reflections and distances.
@@ -43,14 +47,14 @@ enum Mode {
 }
 
 /// Serialises as `{"hits": [...]}` or `{"occluded": [...]}`.
-#[derive(Serialize)]
+#[derive(Serialize, utoipa::ToSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum RaysResponse {
     Hits(Vec<Option<HitOutput>>),
     Occluded(Vec<bool>),
 }
 
-#[derive(Serialize)]
+#[derive(Serialize, utoipa::ToSchema)]
 pub struct HitOutput {
     t: f32,
     object: u32,
@@ -97,12 +101,20 @@ impl RayInput {
     }
 }
 
+/// Traces a batch of rays: the closest hit of each, or whether anything
+/// blocks it (`"mode": "any"`).
+#[utoipa::path(post, path = "/v1/scenes/{id}/rays", tag = "queries",
+    params(("id" = String, Path, description = "Scene id")),
+    request_body = RaysRequest,
+    responses((status = 200, body = RaysResponse), (status = 413, body = Problem, content_type = "application/problem+json"),
+        (status = 422, body = Problem, content_type = "application/problem+json")),
+    security((), ("api_key" = [])))]
 pub async fn trace(
     State(state): State<AppState>,
     Path(id): Path<String>,
     JsonBody(request): JsonBody<RaysRequest>,
 ) -> Result<Json<RaysResponse>, ApiError> {
-    let loaded = state.scene(&id)?;
+    let entry = state.registry().get(&id)?;
     if request.rays.len() > MAX_RAYS {
         return Err(ApiError::TooManyRays {
             count: request.rays.len(),
@@ -115,27 +127,28 @@ pub async fn trace(
         .enumerate()
         .map(|(i, r)| r.to_ray(i))
         .collect::<Result<Vec<_>, _>>()?;
-    // Tracing is CPU-bound (and parallel inside the engine); keep it off
-    // the async workers so other requests stay responsive.
-    let response = tokio::task::spawn_blocking(move || match request.mode {
-        Mode::Closest => RaysResponse::Hits(
-            loaded
-                .bvh
-                .closest_hits(&rays)
-                .iter()
-                .map(|h| h.as_ref().map(|h| HitOutput::new(&loaded.scene, h)))
-                .collect(),
-        ),
-        Mode::Any => RaysResponse::Occluded(loaded.bvh.any_hits(&rays)),
-    })
-    .await
-    .map_err(|e| ApiError::Internal(e.to_string()))?;
+    let response = state
+        .compute()
+        .run(move || {
+            let live = entry.read();
+            let bvh = live.acoustic.bvh();
+            match request.mode {
+                Mode::Closest => RaysResponse::Hits(
+                    bvh.closest_hits(&rays)
+                        .iter()
+                        .map(|h| h.as_ref().map(|h| HitOutput::new(&live.scene, h)))
+                        .collect(),
+                ),
+                Mode::Any => RaysResponse::Occluded(bvh.any_hits(&rays)),
+            }
+        })
+        .await?;
     Ok(Json(response))
 }
 
 #[cfg(test)]
 mod tests {
-    use crate::app::test_support::*;
+    use crate::routes::test_support::*;
     use axum::http::StatusCode;
     use serde_json::json;
 
@@ -146,7 +159,8 @@ mod tests {
         // The room spans x in [0, 10]; from x = 2 along +x (unnormalised)
         // the wall at x = 10 is 8 m away.
         let body = r#"{"rays":[{"origin":[2,3,1.5],"direction":[5,0,0]}]}"#;
-        let (status, _, body) = send(post_json(SHOEBOX_RAYS, body)).await;
+        let server = TestServer::new();
+        let (status, _, body) = server.send(post_json(SHOEBOX_RAYS, body)).await;
         assert_eq!(status, StatusCode::OK);
         let hit = &body["hits"][0];
         assert!((hit["t"].as_f64().expect("t") - 8.0).abs() < 1e-4, "{hit}");
@@ -166,7 +180,10 @@ mod tests {
                 { "origin": [2, 3, 1.5], "direction": [1, 0, 0], "max_distance": 9 },
             ]
         });
-        let (status, _, body) = send(post_json(SHOEBOX_RAYS, &body.to_string())).await;
+        let server = TestServer::new();
+        let (status, _, body) = server
+            .send(post_json(SHOEBOX_RAYS, &body.to_string()))
+            .await;
         assert_eq!(status, StatusCode::OK);
         assert_eq!(body, json!({ "occluded": [false, true] }));
     }
@@ -174,7 +191,8 @@ mod tests {
     #[tokio::test]
     async fn a_miss_is_null() {
         let body = r#"{"rays":[{"origin":[20,3,1.5],"direction":[1,0,0]}]}"#;
-        let (status, _, body) = send(post_json(SHOEBOX_RAYS, body)).await;
+        let server = TestServer::new();
+        let (status, _, body) = server.send(post_json(SHOEBOX_RAYS, body)).await;
         assert_eq!(status, StatusCode::OK);
         assert_eq!(body, json!({ "hits": [null] }));
     }
@@ -185,7 +203,10 @@ mod tests {
             { "origin": [1, 1, 1], "direction": [1, 0, 0] },
             { "origin": [1, 1, 1], "direction": [0, 0, 0] },
         ]});
-        let (status, content_type, body) = send(post_json(SHOEBOX_RAYS, &body.to_string())).await;
+        let server = TestServer::new();
+        let (status, content_type, body) = server
+            .send(post_json(SHOEBOX_RAYS, &body.to_string()))
+            .await;
         assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
         assert_eq!(content_type, "application/problem+json");
         assert_eq!(body["ray_index"], 1);
@@ -196,14 +217,17 @@ mod tests {
     async fn overflowing_direction_is_rejected() {
         // 1e300 fits in JSON but is infinite as f32.
         let body = r#"{"rays":[{"origin":[1,1,1],"direction":[1e300,0,0]}]}"#;
-        let (status, _, body) = send(post_json(SHOEBOX_RAYS, body)).await;
+        let server = TestServer::new();
+        let (status, _, body) = server.send(post_json(SHOEBOX_RAYS, body)).await;
         assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
         assert_eq!(body["ray_index"], 0);
     }
 
     #[tokio::test]
     async fn malformed_json_is_a_400_problem() {
-        let (status, content_type, body) = send(post_json(SHOEBOX_RAYS, "{\"rays\": [")).await;
+        let server = TestServer::new();
+        let (status, content_type, body) =
+            server.send(post_json(SHOEBOX_RAYS, "{\"rays\": [")).await;
         assert_eq!(status, StatusCode::BAD_REQUEST);
         assert_eq!(content_type, "application/problem+json");
         assert_eq!(body["type"], "urn:frusta:problem:bad-body");
@@ -212,7 +236,8 @@ mod tests {
     #[tokio::test]
     async fn wrong_shape_is_a_422_problem() {
         let body = r#"{"rays":[{"origin":[1,1],"direction":[1,0,0]}]}"#;
-        let (status, content_type, _) = send(post_json(SHOEBOX_RAYS, body)).await;
+        let server = TestServer::new();
+        let (status, content_type, _) = server.send(post_json(SHOEBOX_RAYS, body)).await;
         assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
         assert_eq!(content_type, "application/problem+json");
     }
@@ -222,7 +247,8 @@ mod tests {
         let ray = r#"{"origin":[1,1,1],"direction":[1,0,0]}"#;
         let rays = vec![ray; super::MAX_RAYS + 1].join(",");
         let body = format!(r#"{{"rays":[{rays}]}}"#);
-        let (status, content_type, body) = send(post_json(SHOEBOX_RAYS, &body)).await;
+        let server = TestServer::new();
+        let (status, content_type, body) = server.send(post_json(SHOEBOX_RAYS, &body)).await;
         assert_eq!(status, StatusCode::PAYLOAD_TOO_LARGE);
         assert_eq!(content_type, "application/problem+json");
         assert_eq!(body["type"], "urn:frusta:problem:too-many-rays");
@@ -231,7 +257,10 @@ mod tests {
     #[tokio::test]
     async fn rays_into_an_unknown_scene_are_a_404() {
         let body = r#"{"rays":[]}"#;
-        let (status, _, _) = send(post_json("/v1/scenes/atlantis/rays", body)).await;
+        let server = TestServer::new();
+        let (status, _, _) = server
+            .send(post_json("/v1/scenes/atlantis/rays", body))
+            .await;
         assert_eq!(status, StatusCode::NOT_FOUND);
     }
 }

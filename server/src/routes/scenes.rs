@@ -1,112 +1,442 @@
-//! Scene listing and detail: what a client needs to pick a scene and
-//! interpret hits (object and material names by index).
+//! `/v1/scenes`: upload (JSON scene document, OBJ or glTF), list, inspect
+//! and delete scenes.
 
-use axum::extract::{Path, State};
-use axum::Json;
+use axum::body::Body;
+use axum::extract::{Path, Query, State};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::{Extension, Json};
 use frusta_engine::query::SceneBvhStats;
-use serde::Serialize;
+use frusta_engine::scene::load::{parse_gltf, parse_obj};
+use frusta_engine::scene::{builtin_material, Scene};
+use http_body_util::{BodyExt, LengthLimitError, Limited};
+use serde::{Deserialize, Serialize};
+use utoipa::{IntoParams, ToSchema};
 
 use crate::app::AppState;
-use crate::catalog::LoadedScene;
-use crate::error::ApiError;
+use crate::auth::Caller;
+use crate::error::{ApiError, Problem};
+use crate::registry::{now_unix_ms, SceneEntry};
+use crate::store::SceneMeta;
 
-#[derive(Serialize)]
+#[derive(Serialize, ToSchema)]
+pub struct ObjectSummary {
+    index: usize,
+    name: String,
+    triangles: usize,
+    vertices: usize,
+    dynamic: bool,
+    /// Quaternion `[x, y, z, w]`.
+    rotation: [f32; 4],
+    translation: [f32; 3],
+}
+
+#[derive(Serialize, ToSchema)]
 pub struct SceneSummary {
     id: String,
-    objects: usize,
+    revision: u64,
+    bundled: bool,
+    created_unix_ms: u64,
     triangles: usize,
-    /// Material names in id order, so a hit's material index maps here.
+    objects: Vec<ObjectSummary>,
+    /// Material names in id order, so a hit's material maps here.
     materials: Vec<String>,
+    /// Time to build the acoustic hierarchy when the scene was loaded.
+    build_ms: f64,
 }
 
 impl SceneSummary {
-    fn new(id: &str, loaded: &LoadedScene) -> Self {
+    pub fn new(entry: &SceneEntry) -> Self {
+        let live = entry.read();
         Self {
-            id: id.to_owned(),
-            objects: loaded.scene.objects.len(),
-            triangles: loaded.scene.triangle_count(),
-            materials: loaded
+            id: entry.id.clone(),
+            revision: live.revision,
+            bundled: entry.meta.bundled,
+            created_unix_ms: entry.meta.created_unix_ms,
+            triangles: live.scene.triangle_count(),
+            objects: live
+                .scene
+                .objects
+                .iter()
+                .enumerate()
+                .map(|(index, o)| ObjectSummary {
+                    index,
+                    name: o.name.clone(),
+                    triangles: o.mesh.triangle_count(),
+                    vertices: o.mesh.positions().len(),
+                    dynamic: o.dynamic,
+                    rotation: o.transform.rotation.to_array(),
+                    translation: o.transform.translation.to_array(),
+                })
+                .collect(),
+            materials: live
                 .scene
                 .materials
                 .iter()
                 .map(|m| m.name.clone())
                 .collect(),
+            build_ms: live.build_ms,
         }
     }
 }
 
-#[derive(Serialize)]
+#[derive(Serialize, ToSchema)]
 pub struct SceneList {
     scenes: Vec<SceneSummary>,
 }
 
+#[derive(Serialize, ToSchema)]
+pub struct SceneDetail {
+    #[serde(flatten)]
+    summary: SceneSummary,
+    /// Per-object hierarchy statistics.
+    #[schema(value_type = Object)]
+    bvh: SceneBvhStats,
+}
+
+/// Lists every scene.
+#[utoipa::path(get, path = "/v1/scenes", tag = "scenes",
+    responses((status = 200, body = SceneList)), security((), ("api_key" = [])))]
 pub async fn list(State(state): State<AppState>) -> Json<SceneList> {
     let scenes = state
-        .catalog()
+        .registry()
+        .list()
         .iter()
-        .map(|(id, loaded)| SceneSummary::new(id, loaded))
+        .map(|e| SceneSummary::new(e))
         .collect();
     Json(SceneList { scenes })
 }
 
-#[derive(Serialize)]
-pub struct SceneDetail {
-    #[serde(flatten)]
-    summary: SceneSummary,
-    build_ms: f64,
-    stats: SceneBvhStats,
-}
-
+/// One scene: objects, materials and hierarchy statistics.
+#[utoipa::path(get, path = "/v1/scenes/{id}", tag = "scenes",
+    params(("id" = String, Path, description = "Scene id")),
+    responses((status = 200, body = SceneDetail), (status = 404, body = Problem, content_type = "application/problem+json")),
+    security((), ("api_key" = [])))]
 pub async fn detail(
     State(state): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<SceneDetail>, ApiError> {
-    let loaded = state.scene(&id)?;
+    let entry = state.registry().get(&id)?;
+    let bvh = entry.read().acoustic.bvh().stats();
     Ok(Json(SceneDetail {
-        summary: SceneSummary::new(&id, &loaded),
-        build_ms: loaded.build_time.as_secs_f64() * 1e3,
-        stats: loaded.bvh.stats(),
+        summary: SceneSummary::new(&entry),
+        bvh,
     }))
+}
+
+#[derive(Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct CreateQuery {
+    /// The new scene's id (letters, digits, `-`, `_`; at most 64). Without
+    /// it the id is made from the scene's name.
+    id: Option<String>,
+    /// Object name for OBJ and glTF uploads (default `mesh`).
+    object: Option<String>,
+    /// Material of every triangle of an OBJ or glTF upload whose file
+    /// material is not a library material (default `concrete`).
+    material: Option<String>,
+}
+
+/// Uploads a scene: a JSON scene document (`scenes/README.md`; inline and
+/// generated meshes, no file references), or an OBJ (`model/obj`) or glTF
+/// (`model/gltf-binary`, `model/gltf+json`) mesh as one object.
+#[utoipa::path(post, path = "/v1/scenes", tag = "scenes", params(CreateQuery),
+    request_body(content = String, description = "Scene document, OBJ or glTF", content_type = "application/json"),
+    responses((status = 201, body = SceneSummary), (status = 409, body = Problem, content_type = "application/problem+json"),
+        (status = 413, body = Problem, content_type = "application/problem+json"), (status = 422, body = Problem, content_type = "application/problem+json")),
+    security((), ("api_key" = [])))]
+pub async fn create(
+    State(state): State<AppState>,
+    Extension(caller): Extension<Caller>,
+    Query(query): Query<CreateQuery>,
+    headers: HeaderMap,
+    body: Body,
+) -> Result<(StatusCode, HeaderMap, Json<SceneSummary>), ApiError> {
+    let limit = state.limits().max_upload_bytes();
+    let bytes = match Limited::new(body, limit).collect().await {
+        Ok(collected) => collected.to_bytes(),
+        Err(e) if e.downcast_ref::<LengthLimitError>().is_some() => {
+            return Err(ApiError::BadBody {
+                status: StatusCode::PAYLOAD_TOO_LARGE,
+                detail: format!(
+                    "the upload exceeds this server's limit of {} MiB",
+                    state.limits().max_upload_mib
+                ),
+            })
+        }
+        Err(e) => {
+            return Err(ApiError::BadBody {
+                status: StatusCode::BAD_REQUEST,
+                detail: format!("cannot read the body: {e}"),
+            })
+        }
+    };
+    let content_type = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("application/json")
+        .split(';')
+        .next()
+        .unwrap_or_default()
+        .trim()
+        .to_ascii_lowercase();
+    if let Some(id) = &query.id {
+        check_id(id)?;
+    }
+    let job_state = state.clone();
+    let summary = state
+        .compute()
+        .run(move || {
+            let scene = parse(&content_type, &bytes, &query)?;
+            let limits = job_state.limits();
+            let triangles = scene.triangle_count();
+            if triangles > limits.max_triangles {
+                return Err(ApiError::LimitExceeded(format!(
+                    "the scene has {triangles} triangles; this server takes at most {}",
+                    limits.max_triangles
+                )));
+            }
+            let registry = job_state.registry();
+            let total = registry.total_triangles();
+            if total + triangles > limits.max_total_triangles {
+                return Err(ApiError::ServerFull(format!(
+                    "the server holds {total} triangles and takes at most {} in all; delete a scene first",
+                    limits.max_total_triangles
+                )));
+            }
+            let id = match query.id {
+                Some(id) => id,
+                None => free_id(&job_state, &scene_name(&bytes, &content_type)),
+            };
+            let meta = SceneMeta {
+                owner: caller.key.clone(),
+                created_unix_ms: now_unix_ms(),
+                bundled: false,
+            };
+            registry.create(id.clone(), meta, scene)?;
+            Ok(SceneSummary::new(registry.get(&id)?.as_ref()))
+        })
+        .await??;
+    state.refresh_scene_gauges();
+    let mut headers = HeaderMap::new();
+    if let Ok(location) = format!("/v1/scenes/{}", summary.id).parse() {
+        headers.insert(header::LOCATION, location);
+    }
+    Ok((StatusCode::CREATED, headers, Json(summary)))
+}
+
+fn parse(content_type: &str, bytes: &[u8], query: &CreateQuery) -> Result<Scene, ApiError> {
+    let text = || {
+        std::str::from_utf8(bytes)
+            .map_err(|e| ApiError::Invalid(format!("the body is not UTF-8: {e}")))
+    };
+    let mesh = match content_type {
+        "application/json" => {
+            return Scene::from_json_str(text()?, None).map_err(ApiError::from_engine)
+        }
+        "model/obj" | "text/plain" => parse_obj(text()?),
+        "model/gltf-binary" | "model/gltf+json" | "application/octet-stream" => {
+            parse_gltf(bytes, None)
+        }
+        other => {
+            return Err(ApiError::UnsupportedMediaType(format!(
+                "cannot read `{other}`: send application/json (scene document), model/obj or model/gltf-binary"
+            )))
+        }
+    }
+    .map_err(ApiError::from_engine)?;
+    let material_name = query.material.as_deref().unwrap_or("concrete");
+    let material = builtin_material(material_name)
+        .ok_or_else(|| ApiError::Invalid(format!("`{material_name}` is not a library material")))?;
+    Scene::single_object(query.object.as_deref().unwrap_or("mesh"), mesh, material)
+        .map_err(ApiError::from_engine)
+}
+
+fn check_id(id: &str) -> Result<(), ApiError> {
+    let valid = !id.is_empty()
+        && id.len() <= 64
+        && id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if valid {
+        Ok(())
+    } else {
+        Err(ApiError::Invalid(format!(
+            "scene id {id:?} must be 1 to 64 letters, digits, `-` or `_`"
+        )))
+    }
+}
+
+/// The document's `name`, if the upload is a JSON document that has one.
+fn scene_name(bytes: &[u8], content_type: &str) -> String {
+    let name = (content_type == "application/json")
+        .then(|| serde_json::from_slice::<serde_json::Value>(bytes).ok())
+        .flatten()
+        .and_then(|v| v.get("name").and_then(|n| n.as_str()).map(str::to_owned));
+    name.unwrap_or_else(|| "scene".into())
+}
+
+/// A slug of `name` not yet taken: `my-room`, `my-room-2`, ...
+fn free_id(state: &AppState, name: &str) -> String {
+    let mut slug: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '-'
+            }
+        })
+        .collect::<String>()
+        .split('-')
+        .filter(|s| !s.is_empty())
+        .collect::<Vec<_>>()
+        .join("-");
+    slug.truncate(48);
+    if slug.is_empty() {
+        slug = "scene".into();
+    }
+    (1..)
+        .map(|n| {
+            if n == 1 {
+                slug.clone()
+            } else {
+                format!("{slug}-{n}")
+            }
+        })
+        .find(|id| state.registry().get(id).is_err())
+        .unwrap_or(slug)
+}
+
+/// Deletes a scene and its stored edits; open streams on it close.
+#[utoipa::path(delete, path = "/v1/scenes/{id}", tag = "scenes",
+    params(("id" = String, Path, description = "Scene id")),
+    responses((status = 204), (status = 403, body = Problem, content_type = "application/problem+json"), (status = 404, body = Problem, content_type = "application/problem+json")),
+    security((), ("api_key" = [])))]
+pub async fn delete(
+    State(state): State<AppState>,
+    Extension(caller): Extension<Caller>,
+    Path(id): Path<String>,
+) -> Result<StatusCode, ApiError> {
+    let entry = state.registry().get(&id)?;
+    caller.may_change(&entry.meta)?;
+    let job_state = state.clone();
+    state
+        .compute()
+        .run(move || job_state.registry().delete(&id))
+        .await??;
+    state.refresh_scene_gauges();
+    Ok(StatusCode::NO_CONTENT)
 }
 
 #[cfg(test)]
 mod tests {
-    use crate::app::test_support::*;
+    use crate::routes::test_support::*;
     use axum::http::StatusCode;
 
     #[tokio::test]
     async fn list_shows_the_bundled_shoebox() {
-        let (status, _, body) = send(get("/v1/scenes")).await;
+        let server = TestServer::new();
+        let (status, _, body) = server.send(get("/v1/scenes")).await;
         assert_eq!(status, StatusCode::OK);
         let scenes = body["scenes"].as_array().expect("scenes array");
         let shoebox = scenes
             .iter()
             .find(|s| s["id"] == "shoebox")
             .expect("shoebox listed");
-        assert_eq!(shoebox["objects"], 1);
         assert_eq!(shoebox["triangles"], 12);
+        assert_eq!(shoebox["bundled"], true);
         let materials = shoebox["materials"].as_array().expect("materials");
         assert!(materials.iter().any(|m| m == "walls"));
     }
 
     #[tokio::test]
-    async fn detail_includes_bvh_stats() {
-        let (status, _, body) = send(get("/v1/scenes/shoebox")).await;
+    async fn upload_inspect_delete() {
+        let server = TestServer::new();
+        let (status, _, created) = server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        assert_eq!(status, StatusCode::CREATED, "{created}");
+        assert_eq!(created["id"], "box");
+        assert_eq!(created["triangles"], 14);
+        let (status, _, again) = server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        assert_eq!(status, StatusCode::CONFLICT, "{again}");
+        let (status, _, detail) = server.send(get("/v1/scenes/box")).await;
         assert_eq!(status, StatusCode::OK);
-        assert_eq!(body["id"], "shoebox");
-        assert_eq!(body["stats"]["triangles"], 12);
-        assert_eq!(body["stats"]["objects"].as_array().map(Vec::len), Some(1));
+        assert_eq!(detail["bvh"]["triangles"], 14);
+        let (status, _, _) = server.send(delete("/v1/scenes/box")).await;
+        assert_eq!(status, StatusCode::NO_CONTENT);
+        let (status, _, problem) = server.send(get("/v1/scenes/box")).await;
+        assert_eq!(status, StatusCode::NOT_FOUND);
+        assert_eq!(problem["type"], "urn:frusta:problem:unknown-scene");
     }
 
     #[tokio::test]
-    async fn unknown_scene_is_a_404_problem() {
-        let (status, content_type, body) = send(get("/v1/scenes/atlantis")).await;
-        assert_eq!(status, StatusCode::NOT_FOUND);
-        assert_eq!(content_type, "application/problem+json");
-        assert_eq!(body["status"], 404);
-        assert_eq!(body["title"], "Unknown scene");
-        assert!(body["detail"]
-            .as_str()
-            .is_some_and(|d| d.contains("atlantis")));
+    async fn ids_come_from_names_and_never_collide() {
+        let server = TestServer::new();
+        let doc = BOX_DOC.replacen('{', r#"{"name": "My Room!","#, 1);
+        let (_, _, a) = server.send(post_json("/v1/scenes", &doc)).await;
+        let (_, _, b) = server.send(post_json("/v1/scenes", &doc)).await;
+        assert_eq!(a["id"], "my-room");
+        assert_eq!(b["id"], "my-room-2");
+    }
+
+    #[tokio::test]
+    async fn an_obj_upload_is_one_object() {
+        let server = TestServer::new();
+        let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        let request = axum::http::Request::post("/v1/scenes?id=tri&object=panel")
+            .header("content-type", "model/obj")
+            .body(axum::body::Body::from(obj))
+            .expect("request");
+        let (status, _, body) = server.send(request).await;
+        assert_eq!(status, StatusCode::CREATED, "{body}");
+        assert_eq!(body["objects"][0]["name"], "panel");
+        assert_eq!(body["triangles"], 1);
+    }
+
+    #[tokio::test]
+    async fn bad_uploads_are_problems_and_store_nothing() {
+        let server = TestServer::new();
+        let cases = [
+            (
+                "/v1/scenes",
+                "{\"objects\": [",
+                StatusCode::UNPROCESSABLE_ENTITY,
+            ),
+            (
+                "/v1/scenes?id=bad%20id",
+                BOX_DOC,
+                StatusCode::UNPROCESSABLE_ENTITY,
+            ),
+            (
+                "/v1/scenes",
+                r#"{"objects":[{"name":"a","material":"concrete","mesh":{"vertices":[[0,0,0],[1,0,0],[0,1,0]],"triangles":[[0,1,7]]}}]}"#,
+                StatusCode::UNPROCESSABLE_ENTITY,
+            ),
+            (
+                "/v1/scenes",
+                r#"{"objects":[{"name":"a","mesh":{"file":"../etc/passwd.obj"}}]}"#,
+                StatusCode::UNPROCESSABLE_ENTITY,
+            ),
+        ];
+        let before = server.send(get("/v1/scenes")).await.2["scenes"]
+            .as_array()
+            .map(Vec::len);
+        for (uri, body, expected) in cases {
+            let (status, content_type, problem) = server.send(post_json(uri, body)).await;
+            assert_eq!(status, expected, "{uri} {body}: {problem}");
+            assert_eq!(content_type, "application/problem+json");
+            assert!(problem["detail"].as_str().is_some_and(|d| !d.is_empty()));
+        }
+        let request = axum::http::Request::post("/v1/scenes")
+            .header("content-type", "image/png")
+            .body(axum::body::Body::from("x"))
+            .expect("request");
+        assert_eq!(
+            server.send(request).await.0,
+            StatusCode::UNSUPPORTED_MEDIA_TYPE
+        );
+        let after = server.send(get("/v1/scenes")).await.2["scenes"]
+            .as_array()
+            .map(Vec::len);
+        assert_eq!(before, after);
     }
 }

@@ -1,0 +1,98 @@
+//! Everything an operator can set: flags with environment-variable twins,
+//! and the per-request limits that keep one client from exhausting the
+//! machine.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use clap::Parser;
+
+#[derive(Clone, Debug, Parser)]
+#[command(
+    version,
+    about = "Serve frusta scenes: impulse responses, streams and ray queries over HTTP and WebSocket"
+)]
+pub struct Config {
+    /// Address to listen on.
+    #[arg(long, env = "FRUSTA_ADDR", default_value = "127.0.0.1:8080")]
+    pub addr: SocketAddr,
+    /// Where scenes and their edits are stored (created if absent).
+    #[arg(long, env = "FRUSTA_DATA_DIR", default_value = "frusta-data")]
+    pub data_dir: PathBuf,
+    /// Scenes (`*.json`) added to a new, empty data directory so that a
+    /// first start has something to simulate.
+    #[arg(long, env = "FRUSTA_SCENES_DIR", default_value = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes"))]
+    pub scenes_dir: PathBuf,
+    /// Comma-separated API keys. When set, every `/v1` request needs
+    /// `Authorization: Bearer KEY`, and a scene can be changed only with the
+    /// key that created it.
+    #[arg(
+        long,
+        env = "FRUSTA_API_KEYS",
+        value_delimiter = ',',
+        hide_env_values = true
+    )]
+    pub api_keys: Vec<String>,
+    #[command(flatten)]
+    pub limits: Limits,
+}
+
+/// Caps per request and in total; each has a flag and an environment twin.
+#[derive(Clone, Debug, clap::Args)]
+pub struct Limits {
+    /// Largest scene upload, in MiB.
+    #[arg(long, env = "FRUSTA_MAX_UPLOAD_MIB", default_value_t = 256)]
+    pub max_upload_mib: usize,
+    /// Most triangles in one scene.
+    #[arg(long, env = "FRUSTA_MAX_TRIANGLES", default_value_t = 2_000_000)]
+    pub max_triangles: usize,
+    /// Most triangles in all scenes together (bounds memory).
+    #[arg(long, env = "FRUSTA_MAX_TOTAL_TRIANGLES", default_value_t = 20_000_000)]
+    pub max_total_triangles: usize,
+    /// Highest reflection order a request may ask for.
+    #[arg(long, env = "FRUSTA_MAX_ORDER", default_value_t = 8)]
+    pub max_order: u32,
+    /// Largest sub-frustum sampling (N) a request may ask for.
+    #[arg(long, env = "FRUSTA_MAX_SAMPLING", default_value_t = 32)]
+    pub max_sampling: u32,
+    /// Most source-listener pairs in one request.
+    #[arg(long, env = "FRUSTA_MAX_PAIRS", default_value_t = 64)]
+    pub max_pairs: usize,
+    /// Compute time one simulation may take, in milliseconds.
+    #[arg(long, env = "FRUSTA_MAX_COMPUTE_MS", default_value_t = 30_000)]
+    pub max_compute_ms: u64,
+    /// Simulations waiting for a core before new ones are refused (503).
+    #[arg(long, env = "FRUSTA_MAX_QUEUED", default_value_t = 256)]
+    pub max_queued: usize,
+    /// Open WebSocket streams.
+    #[arg(long, env = "FRUSTA_MAX_STREAMS", default_value_t = 64)]
+    pub max_streams: usize,
+    /// Time a whole request may take, in seconds.
+    #[arg(long, env = "FRUSTA_REQUEST_TIMEOUT_S", default_value_t = 60)]
+    pub request_timeout_s: u64,
+}
+
+impl Limits {
+    pub fn max_upload_bytes(&self) -> usize {
+        self.max_upload_mib.saturating_mul(1024 * 1024)
+    }
+
+    pub fn max_compute(&self) -> Duration {
+        Duration::from_millis(self.max_compute_ms)
+    }
+
+    pub fn request_timeout(&self) -> Duration {
+        Duration::from_secs(self.request_timeout_s)
+    }
+}
+
+impl Config {
+    /// The defaults with another data directory: what tests and embedders
+    /// start from.
+    pub fn with_data_dir(data_dir: impl Into<PathBuf>) -> Self {
+        let mut config = Self::parse_from(["frusta-server"]);
+        config.data_dir = data_dir.into();
+        config
+    }
+}

@@ -1,0 +1,208 @@
+//! `POST /v1/scenes/{id}/impulse-responses`: what each listener hears from
+//! each source, as JSON (paths, ISO 3382-1 parameters) or, for one pair, as
+//! a 32-bit float WAV file.
+
+use axum::extract::{Path, State};
+use axum::http::{header, HeaderMap};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use frusta_engine::acoustics::signal::write_wav_to;
+use frusta_engine::acoustics::BeamCache;
+use serde::Serialize;
+use serde_json::Value;
+use utoipa::ToSchema;
+
+use crate::app::AppState;
+use crate::error::{ApiError, JsonBody, Problem};
+use crate::simulation::{self, IrRequest, PairJson};
+
+#[derive(Serialize, ToSchema)]
+pub struct ImpulseResponses<'a> {
+    scene: &'a str,
+    /// The scene revision every response belongs to.
+    revision: u64,
+    /// One per source-listener pair: `source`, `listener`, `paths`,
+    /// `parameters`, `stats`, `sample_rate`, `channels`, `frames`, ...
+    #[schema(value_type = Vec<Object>)]
+    responses: Vec<PairJson<'a>>,
+}
+
+/// Body: `{"sources": [{"position": [x, y, z]}], "listeners": [...]}` plus
+/// any simulation option (`max_order`, `sampling`, `cells`, `bands_hz`,
+/// `air`, `sample_rate`, `channels`, ...), each with a default. Send
+/// `Accept: audio/wav` for the samples of a single pair.
+#[utoipa::path(post, path = "/v1/scenes/{id}/impulse-responses", tag = "acoustics",
+    params(("id" = String, Path, description = "Scene id")),
+    request_body(content = Object, description = "Sources, listeners and simulation options"),
+    responses(
+        (status = 200, body = ImpulseResponses, content_type = "application/json"),
+        (status = 200, description = "One pair's impulse response", content_type = "audio/wav"),
+        (status = 404, body = Problem, content_type = "application/problem+json"),
+        (status = 422, body = Problem, content_type = "application/problem+json"),
+        (status = 503, body = Problem, content_type = "application/problem+json")),
+    security((), ("api_key" = [])))]
+pub async fn create(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    JsonBody(body): JsonBody<Value>,
+) -> Result<Response, ApiError> {
+    let entry = state.registry().get(&id)?;
+    let request = IrRequest::from_json(body, state.limits())?;
+    let wav = headers
+        .get(header::ACCEPT)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|a| a.contains("audio/wav") || a.contains("audio/x-wav"));
+    if wav && request.sources.len() * request.listeners.len() != 1 {
+        return Err(ApiError::NotAcceptable(
+            "a WAV file holds one impulse response: ask for one source and one listener, or for JSON".into(),
+        ));
+    }
+    let limits = state.limits().clone();
+    let (revision, responses) = state
+        .compute()
+        .run(move || {
+            simulation::run(
+                &entry,
+                &request,
+                &mut BeamCache::default(),
+                &mut None,
+                &limits,
+            )
+        })
+        .await??;
+    let metrics = state.metrics();
+    metrics.impulse_responses.inc_by(responses.len() as u64);
+    if let Some(first) = responses.first() {
+        metrics.frusta.inc_by(first.stats.frusta);
+    }
+    if wav {
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        write_wav_to(&mut bytes, &responses[0].impulse_response).map_err(ApiError::from_engine)?;
+        return Ok(([(header::CONTENT_TYPE, "audio/wav")], bytes.into_inner()).into_response());
+    }
+    Ok(Json(ImpulseResponses {
+        scene: &id,
+        revision,
+        responses: responses.iter().map(PairJson::new).collect(),
+    })
+    .into_response())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::routes::test_support::*;
+    use axum::http::StatusCode;
+    use serde_json::json;
+
+    const URI: &str = "/v1/scenes/shoebox/impulse-responses";
+
+    #[tokio::test]
+    async fn the_bundled_shoebox_answers_with_defaults() {
+        let server = TestServer::new();
+        let body = json!({
+            "sources": [{"position": [2, 3, 1.5]}],
+            "listeners": [{"position": [7, 3, 1.2]}, {"position": [5, 2, 1.7]}],
+            "max_order": 2, "sample_rate": 16000
+        });
+        let (status, _, body) = server.send(post_json(URI, &body.to_string())).await;
+        assert_eq!(status, StatusCode::OK, "{body}");
+        let responses = body["responses"].as_array().expect("responses");
+        assert_eq!(responses.len(), 2);
+        // A closed box to order 2 has 1 + 6 + 18 image sources.
+        assert_eq!(responses[0]["paths"].as_array().map(Vec::len), Some(25));
+        assert_eq!(responses[1]["listener"], 1);
+        assert_eq!(responses[0]["sample_rate"], 16000);
+        assert!(responses[0]["frames"].as_u64() > Some(1000));
+        let direct = responses[0]["paths"][0]["distance_m"]
+            .as_f64()
+            .expect("distance");
+        assert!((direct - (25.0f64 + 0.09).sqrt()).abs() < 1e-5, "{direct}");
+    }
+
+    #[tokio::test]
+    async fn wav_for_one_pair() {
+        let server = TestServer::new();
+        let body = r#"{"sources": [{"position": [2, 3, 1.5]}], "listeners": [{"position": [7, 3, 1.2]}], "max_order": 1, "channels": "binaural"}"#;
+        let mut request = post_json(URI, body);
+        request
+            .headers_mut()
+            .insert("accept", "audio/wav".parse().expect("header"));
+        let (status, content_type, bytes) = server.send_raw(request).await;
+        assert_eq!(status, StatusCode::OK);
+        assert_eq!(content_type, "audio/wav");
+        let reader = hound::WavReader::new(std::io::Cursor::new(bytes)).expect("WAV");
+        assert_eq!(reader.spec().channels, 2);
+        assert_eq!(reader.spec().sample_rate, 48_000);
+    }
+
+    #[tokio::test]
+    async fn bad_requests_are_4xx_problems() {
+        let server = TestServer::with(|c| c.limits.max_pairs = 2);
+        let s = r#"[{"position": [2, 3, 1.5]}]"#;
+        let cases = [
+            (
+                json!({"listeners": [{"position": [1, 1, 1]}]}).to_string(),
+                "sources",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": []}}"#),
+                "listeners",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": [{{"position": [1e39, 0, 0]}}]}}"#),
+                "not finite",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": {s}, "max_order": 99}}"#),
+                "max_order",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": {s}, "sampling": 0}}"#),
+                "sampling",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": {s}, "bands_hz": [440]}}"#),
+                "440",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": {s}, "colour": "red"}}"#),
+                "colour",
+            ),
+            (
+                format!(
+                    r#"{{"sources": {s}, "listeners": [{{"position": [1, 1, 1]}}, {{"position": [1, 2, 1]}}, {{"position": [1, 3, 1]}}]}}"#
+                ),
+                "pairs",
+            ),
+        ];
+        for (body, word) in cases {
+            let (status, content_type, problem) = server.send(post_json(URI, &body)).await;
+            assert_eq!(
+                status,
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "{body}: {problem}"
+            );
+            assert_eq!(content_type, "application/problem+json");
+            let detail = problem["detail"].as_str().unwrap_or_default();
+            assert!(detail.contains(word), "{detail} should name {word}");
+        }
+        let two = format!(
+            r#"{{"sources": {s}, "listeners": [{{"position": [1, 1, 1]}}, {{"position": [1, 2, 1]}}]}}"#
+        );
+        let mut request = post_json(URI, &two);
+        request
+            .headers_mut()
+            .insert("accept", "audio/wav".parse().expect("header"));
+        assert_eq!(server.send(request).await.0, StatusCode::NOT_ACCEPTABLE);
+    }
+
+    #[tokio::test]
+    async fn the_compute_limit_is_a_problem() {
+        let server = TestServer::with(|c| c.limits.max_compute_ms = 0);
+        let body = r#"{"sources": [{"position": [2, 3, 1.5]}], "listeners": [{"position": [7, 3, 1.2]}], "max_order": 8, "sampling": 32}"#;
+        let (status, _, problem) = server.send(post_json(URI, body)).await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{problem}");
+        assert_eq!(problem["type"], "urn:frusta:problem:compute-limit");
+    }
+}

@@ -1,0 +1,361 @@
+//! `GET /v1/scenes/{id}/stream`: a WebSocket on which the client sends
+//! updates (sources, listeners, options, object moves) and the server
+//! answers each with fresh impulse responses.
+//!
+//! Updates that arrive while a simulation runs are merged, newest value
+//! winning, and simulated together when it ends: a slow engine skips
+//! states instead of building a backlog. An edit by anyone else (another
+//! stream, a `PATCH`) also triggers a new answer, and every answer names the
+//! scene revision it was computed on, so streams on one scene agree.
+//!
+//! Protocol, client to server (text, JSON; every field optional):
+//! `{"seq": 7, "sources": [{"position": [x,y,z]}], "listeners": [...],
+//!   "options": {<simulation options>}, "objects": [{"object": "door",
+//!   "translation": [x,y,z], "rotation": [x,y,z,w], "vertices": [...]}]}`.
+//! Server to client, per source-listener pair: a text frame
+//! `{"type": "impulse_response", "seq", "revision", "compute_ms", ...}`
+//! (the fields of the HTTP route's responses), then a binary frame of
+//! interleaved little-endian f32 samples. Errors are text frames
+//! `{"type": "error", <problem document>}`; the stream stays open.
+
+use std::time::Instant;
+
+use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade};
+use axum::extract::{Path, State};
+use axum::response::Response;
+use axum::Extension;
+use frusta_engine::acoustics::{self, BeamCache};
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use tokio::sync::{mpsc, OwnedSemaphorePermit};
+use utoipa::ToSchema;
+
+use crate::app::AppState;
+use crate::auth::Caller;
+use crate::error::{ApiError, Problem};
+use crate::registry::{EditReport, ObjectEdit, SceneEntry};
+use crate::routes::objects::{object_index, ObjectPatch};
+use crate::simulation::{self, IrRequest, PairJson, Point};
+
+/// One message from the client; omitted fields keep their last value.
+#[derive(Debug, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StreamUpdate {
+    /// Echoed in the answers that include this update, for latency.
+    seq: Option<u64>,
+    sources: Option<Vec<Point>>,
+    listeners: Option<Vec<Point>>,
+    /// Simulation options, as in the impulse-response route.
+    #[schema(value_type = Object)]
+    options: Option<Value>,
+    objects: Option<Vec<ObjectMove>>,
+}
+
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectMove {
+    /// Name or index.
+    object: String,
+    #[serde(flatten)]
+    patch: ObjectPatch,
+}
+
+#[derive(Serialize)]
+struct Answer<'a> {
+    #[serde(rename = "type")]
+    kind: &'static str,
+    seq: Option<u64>,
+    revision: u64,
+    compute_ms: f64,
+    /// What each object move of this update did to the hierarchy.
+    objects: &'a [EditReport],
+    #[serde(flatten)]
+    pair: PairJson<'a>,
+}
+
+#[derive(Serialize)]
+struct ErrorFrame<'a> {
+    #[serde(rename = "type")]
+    kind: &'static str,
+    #[serde(flatten)]
+    problem: &'a Problem,
+}
+
+/// Opens a stream; see the module documentation for the protocol.
+#[utoipa::path(get, path = "/v1/scenes/{id}/stream", tag = "acoustics",
+    params(("id" = String, Path, description = "Scene id")),
+    request_body(content = StreamUpdate, description = "Sent as WebSocket text messages after the upgrade"),
+    responses((status = 101, description = "Switching to the WebSocket protocol"),
+        (status = 404, body = Problem, content_type = "application/problem+json"),
+        (status = 503, body = Problem, content_type = "application/problem+json")),
+    security((), ("api_key" = [])))]
+pub async fn connect(
+    State(state): State<AppState>,
+    Extension(caller): Extension<Caller>,
+    Path(id): Path<String>,
+    ws: WebSocketUpgrade,
+) -> Result<Response, ApiError> {
+    let entry = state.registry().get(&id)?;
+    let permit = state
+        .streams()
+        .clone()
+        .try_acquire_owned()
+        .map_err(|_| ApiError::Busy {
+            queued: state.limits().max_streams,
+        })?;
+    let tasks = state.tasks().clone();
+    Ok(ws.on_upgrade(move |socket| {
+        tasks.track_future(Stream::new(state, caller, entry, permit).run(socket))
+    }))
+}
+
+/// Updates received and not yet simulated.
+#[derive(Default)]
+struct Pending {
+    seq: Option<u64>,
+    request: Option<IrRequest>,
+    objects: Vec<(String, ObjectEdit)>,
+    /// Something changed since the last answer.
+    dirty: bool,
+}
+
+struct Computed {
+    seq: Option<u64>,
+    revision: u64,
+    compute_ms: f64,
+    objects: Vec<EditReport>,
+    responses: Vec<acoustics::Response>,
+}
+
+type JobResult = (BeamCache, Option<u64>, Result<Computed, ApiError>);
+
+struct Stream {
+    state: AppState,
+    caller: Caller,
+    entry: std::sync::Arc<SceneEntry>,
+    _permit: OwnedSemaphorePermit,
+    pending: Pending,
+    /// The last request simulated, which updates modify.
+    current: Option<IrRequest>,
+    /// Absent while a job owns it.
+    cache: Option<(BeamCache, Option<u64>)>,
+    /// The newest scene revision answered for.
+    answered: Option<u64>,
+}
+
+impl Stream {
+    fn new(
+        state: AppState,
+        caller: Caller,
+        entry: std::sync::Arc<SceneEntry>,
+        permit: OwnedSemaphorePermit,
+    ) -> Self {
+        Self {
+            state,
+            caller,
+            entry,
+            _permit: permit,
+            pending: Pending::default(),
+            current: None,
+            cache: Some((BeamCache::default(), None)),
+            answered: None,
+        }
+    }
+
+    async fn run(mut self, mut socket: WebSocket) {
+        self.state.metrics().streams.inc();
+        let shutdown = self.state.shutdown_token().clone();
+        let mut revisions = self.entry.watch();
+        let (done_tx, mut done_rx) = mpsc::channel::<JobResult>(1);
+        loop {
+            if self.cache.is_some() && self.pending.dirty {
+                self.start_job(done_tx.clone());
+            }
+            tokio::select! {
+                message = socket.recv() => match message {
+                    Some(Ok(Message::Text(text))) => {
+                        if let Err(e) = self.merge(text.as_str()) {
+                            if send_error(&mut socket, &e).await.is_err() { break; }
+                        }
+                    }
+                    Some(Ok(Message::Binary(_))) => {
+                        let e = ApiError::Invalid("updates are JSON text messages".into());
+                        if send_error(&mut socket, &e).await.is_err() { break; }
+                    }
+                    Some(Ok(Message::Close(_))) | None | Some(Err(_)) => break,
+                    Some(Ok(_)) => {}
+                },
+                Some((cache, cached, result)) = done_rx.recv() => {
+                    self.cache = Some((cache, cached));
+                    let sent = match result {
+                        Ok(computed) => self.send_answers(&mut socket, computed).await,
+                        Err(e) => send_error(&mut socket, &e).await,
+                    };
+                    if sent.is_err() { break; }
+                }
+                changed = revisions.changed() => {
+                    let revision = *revisions.borrow_and_update();
+                    match (changed, revision) {
+                        (Ok(()), Some(r)) => {
+                            if self.answered.is_some_and(|a| a < r) && self.current.is_some() {
+                                self.pending.dirty = true;
+                            }
+                        }
+                        _ => {
+                            let e = ApiError::SceneNotFound(self.entry.id.clone());
+                            let _ = send_error(&mut socket, &e).await;
+                            let _ = socket.send(close(1000, "scene deleted")).await;
+                            break;
+                        }
+                    }
+                }
+                () = shutdown.cancelled() => {
+                    let _ = socket.send(close(1001, "server shutting down")).await;
+                    break;
+                }
+            }
+        }
+        self.state.metrics().streams.dec();
+    }
+
+    /// Merges one client message into the pending update.
+    fn merge(&mut self, text: &str) -> Result<(), ApiError> {
+        let update: StreamUpdate =
+            serde_json::from_str(text).map_err(|e| ApiError::Invalid(format!("update: {e}")))?;
+        let base = self.pending.request.as_ref().or(self.current.as_ref());
+        let sources = match (&update.sources, base) {
+            (Some(s), _) => Some(simulation::positions("sources", s)?),
+            (None, b) => b.map(|b| b.sources.clone()),
+        };
+        let listeners = match (&update.listeners, base) {
+            (Some(l), _) => Some(simulation::positions("listeners", l)?),
+            (None, b) => b.map(|b| b.listeners.clone()),
+        };
+        let options = match (update.options, base) {
+            (Some(o), _) => {
+                serde_json::from_value(o).map_err(|e| ApiError::Invalid(format!("options: {e}")))?
+            }
+            (None, Some(b)) => b.options.clone(),
+            (None, None) => Default::default(),
+        };
+        let mut edits = Vec::new();
+        for m in update.objects.unwrap_or_default() {
+            self.caller.may_change(&self.entry.meta)?;
+            edits.push((m.object, m.patch.to_edit()?));
+        }
+        let request = match (sources, listeners) {
+            (Some(sources), Some(listeners)) => {
+                let request = IrRequest {
+                    sources,
+                    listeners,
+                    options,
+                };
+                request.check(self.state.limits())?;
+                Some(request)
+            }
+            _ => None,
+        };
+        // Only a fully valid update changes anything.
+        if let Some(r) = request {
+            self.pending.request = Some(r);
+        }
+        self.pending.objects.extend(edits);
+        self.pending.seq = update.seq.or(self.pending.seq);
+        self.pending.dirty = self.pending.request.is_some() || self.current.is_some();
+        Ok(())
+    }
+
+    /// Hands the pending update to the compute pool.
+    fn start_job(&mut self, done: mpsc::Sender<JobResult>) {
+        let pending = std::mem::take(&mut self.pending);
+        if let Some(r) = pending.request {
+            self.current = Some(r);
+        }
+        let Some(request) = self.current.clone() else {
+            return;
+        };
+        let Some((mut cache, mut cached)) = self.cache.take() else {
+            return;
+        };
+        let state = self.state.clone();
+        let entry = self.entry.clone();
+        tokio::spawn(async move {
+            let job_state = state.clone();
+            let job = move || {
+                let start = Instant::now();
+                let result = (|| {
+                    let mut objects = Vec::new();
+                    for (object, edit) in &pending.objects {
+                        let index = object_index(&entry.read(), object)?;
+                        let report = job_state.registry().edit_object(&entry, index, edit)?;
+                        job_state.metrics().count_update(report.action);
+                        objects.push(report);
+                    }
+                    let limits = job_state.limits();
+                    let (revision, responses) =
+                        simulation::run(&entry, &request, &mut cache, &mut cached, limits)?;
+                    Ok(Computed {
+                        seq: pending.seq,
+                        revision,
+                        compute_ms: start.elapsed().as_secs_f64() * 1e3,
+                        objects,
+                        responses,
+                    })
+                })();
+                (cache, cached, result)
+            };
+            let result = match state.compute().run(job).await {
+                Ok(r) => r,
+                Err(e) => (BeamCache::default(), None, Err(e)),
+            };
+            let _ = done.send(result).await;
+        });
+    }
+
+    async fn send_answers(
+        &mut self,
+        socket: &mut WebSocket,
+        computed: Computed,
+    ) -> Result<(), axum::Error> {
+        self.answered = Some(computed.revision);
+        let metrics = self.state.metrics();
+        for response in &computed.responses {
+            let answer = Answer {
+                kind: "impulse_response",
+                seq: computed.seq,
+                revision: computed.revision,
+                compute_ms: computed.compute_ms,
+                objects: &computed.objects,
+                pair: PairJson::new(response),
+            };
+            let text = serde_json::to_string(&answer).unwrap_or_default();
+            socket.send(Message::Text(text.into())).await?;
+            let samples = simulation::samples_le(response);
+            socket.send(Message::Binary(samples.into())).await?;
+            metrics.stream_updates.inc();
+        }
+        if let Some(first) = computed.responses.first() {
+            if !first.stats.beams_reused {
+                metrics.frusta.inc_by(first.stats.frusta);
+            }
+        }
+        Ok(())
+    }
+}
+
+async fn send_error(socket: &mut WebSocket, e: &ApiError) -> Result<(), axum::Error> {
+    let problem = e.problem();
+    let frame = ErrorFrame {
+        kind: "error",
+        problem: &problem,
+    };
+    let text = serde_json::to_string(&frame).unwrap_or_default();
+    socket.send(Message::Text(text.into())).await
+}
+
+fn close(code: u16, reason: &'static str) -> Message {
+    Message::Close(Some(CloseFrame {
+        code,
+        reason: reason.into(),
+    }))
+}

@@ -1,0 +1,179 @@
+//! Impulse-response requests as the HTTP route and the stream both take
+//! them: positions and options checked against the server's limits, then
+//! one simulation under the scene's read lock, so every answer belongs to
+//! exactly one revision of the scene.
+
+use std::time::Instant;
+
+use frusta_engine::acoustics::{simulate_cached, BeamCache, Response, SimulationOptions};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+use crate::config::Limits;
+use crate::error::ApiError;
+use crate::registry::SceneEntry;
+
+/// A source or listener.
+#[derive(Clone, Debug, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Point {
+    /// `[x, y, z]` in metres.
+    pub position: [f32; 3],
+}
+
+/// Sources, listeners and options; every option has a default.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IrRequest {
+    pub sources: Vec<Vec3>,
+    pub listeners: Vec<Vec3>,
+    pub options: SimulationOptions,
+}
+
+impl IrRequest {
+    /// Reads `{"sources": [...], "listeners": [...], <options>...}`; the
+    /// options are the engine's `SimulationOptions` fields, and an unknown
+    /// field is an error that names it.
+    pub fn from_json(value: Value, limits: &Limits) -> Result<Self, ApiError> {
+        let Value::Object(mut fields) = value else {
+            return Err(ApiError::Invalid("the body must be a JSON object".into()));
+        };
+        let sources = points(&mut fields, "sources")?;
+        let listeners = points(&mut fields, "listeners")?;
+        let options: SimulationOptions = serde_json::from_value(Value::Object(fields))
+            .map_err(|e| ApiError::Invalid(format!("options: {e}")))?;
+        let request = Self {
+            sources,
+            listeners,
+            options,
+        };
+        request.check(limits)?;
+        Ok(request)
+    }
+
+    /// The server's caps; the engine checks everything else.
+    pub fn check(&self, limits: &Limits) -> Result<(), ApiError> {
+        let pairs = self.sources.len() * self.listeners.len();
+        if pairs > limits.max_pairs {
+            return Err(ApiError::LimitExceeded(format!(
+                "{} sources x {} listeners = {pairs} pairs; at most {} are allowed",
+                self.sources.len(),
+                self.listeners.len(),
+                limits.max_pairs
+            )));
+        }
+        if self.options.max_order > limits.max_order {
+            return Err(ApiError::LimitExceeded(format!(
+                "max_order {} exceeds this server's limit of {}",
+                self.options.max_order, limits.max_order
+            )));
+        }
+        if self.options.sampling > limits.max_sampling {
+            return Err(ApiError::LimitExceeded(format!(
+                "sampling {} exceeds this server's limit of {}",
+                self.options.sampling, limits.max_sampling
+            )));
+        }
+        self.options
+            .trace_options()
+            .map_err(ApiError::from_engine)?;
+        Ok(())
+    }
+}
+
+fn points(fields: &mut Map<String, Value>, name: &str) -> Result<Vec<Vec3>, ApiError> {
+    let value = fields.remove(name).ok_or_else(|| {
+        ApiError::Invalid(format!(
+            "`{name}` is missing: give at least one {{\"position\": [x, y, z]}}"
+        ))
+    })?;
+    let list: Vec<Point> =
+        serde_json::from_value(value).map_err(|e| ApiError::Invalid(format!("{name}: {e}")))?;
+    positions(name, &list)
+}
+
+/// The points' positions, each checked finite.
+pub fn positions(name: &str, list: &[Point]) -> Result<Vec<Vec3>, ApiError> {
+    if list.is_empty() {
+        return Err(ApiError::Invalid(format!("`{name}` is empty")));
+    }
+    list.iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let v = Vec3::from_array(p.position);
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(ApiError::Invalid(format!(
+                    "{name}[{i}].position {:?} is not finite",
+                    p.position
+                )))
+            }
+        })
+        .collect()
+}
+
+/// One source-listener pair as JSON: the fields of `frusta ir --json` and
+/// the shape of the samples (sent as WAV or a binary frame).
+#[derive(Serialize)]
+pub struct PairJson<'a> {
+    #[serde(flatten)]
+    pub response: &'a Response,
+    pub sample_rate: u32,
+    pub channels: usize,
+    pub frames: usize,
+}
+
+impl<'a> PairJson<'a> {
+    pub fn new(response: &'a Response) -> Self {
+        let ir = &response.impulse_response;
+        Self {
+            response,
+            sample_rate: ir.sample_rate,
+            channels: ir.channels.len(),
+            frames: ir.channels.first().map_or(0, Vec::len),
+        }
+    }
+}
+
+/// Simulates under the scene's read lock. `cache` keeps the frusta traced
+/// from unchanged sources (a stream whose listener moves); it is emptied
+/// when the scene's revision differs from `cached_revision`. Blocking.
+pub fn run(
+    entry: &SceneEntry,
+    request: &IrRequest,
+    cache: &mut BeamCache,
+    cached_revision: &mut Option<u64>,
+    limits: &Limits,
+) -> Result<(u64, Vec<Response>), ApiError> {
+    let live = entry.read();
+    if *cached_revision != Some(live.revision) {
+        *cache = BeamCache::default();
+        *cached_revision = Some(live.revision);
+    }
+    let deadline = Instant::now() + limits.max_compute();
+    let responses = simulate_cached(
+        &live.acoustic,
+        &request.sources,
+        &request.listeners,
+        &request.options,
+        cache,
+        Some(deadline),
+    )
+    .map_err(ApiError::from_engine)?;
+    Ok((live.revision, responses))
+}
+
+/// Interleaved little-endian f32 frames, the binary form of an impulse
+/// response on streams.
+pub fn samples_le(response: &Response) -> Vec<u8> {
+    let channels = &response.impulse_response.channels;
+    let frames = channels.first().map_or(0, Vec::len);
+    let mut out = Vec::with_capacity(frames * channels.len() * 4);
+    for i in 0..frames {
+        for c in channels {
+            out.extend_from_slice(&c[i].to_le_bytes());
+        }
+    }
+    out
+}
