@@ -50,6 +50,8 @@ pub enum Error {
     InvalidAudio(String),
     #[error("audio file {path}: {reason}")]
     Audio { path: String, reason: String },
+    #[error("computation stopped at its deadline of {limit_ms} ms; nothing partial is returned")]
+    DeadlineExceeded { limit_ms: u64 },
 }
 
 impl Error {

@@ -133,3 +133,193 @@ fn sampled_cells_find_the_box_image_sources_with_fewer_frusta() {
     assert_eq!(lengths(&sampled.paths[0]), lengths(&conservative.paths[0]));
     assert!(sampled.stats.frusta <= conservative.stats.frusta);
 }
+
+mod cached {
+    use std::time::{Duration, Instant};
+
+    use frusta_engine::acoustics::{
+        simulate, simulate_cached, AcousticScene, BeamCache, CellAssignment, Response,
+        SimulationOptions,
+    };
+    use frusta_engine::geometry::RigidTransform;
+    use frusta_engine::Error;
+    use glam::Vec3;
+
+    use super::{bundled, shoebox};
+
+    fn options(max_order: u32) -> SimulationOptions {
+        SimulationOptions {
+            max_order,
+            sampling: 8,
+            sample_rate: 8_000,
+            ..Default::default()
+        }
+    }
+
+    /// Everything but the timings.
+    fn assert_same(cached: &[Response], fresh: &[Response]) {
+        assert_eq!(cached.len(), fresh.len());
+        for (c, f) in cached.iter().zip(fresh) {
+            assert_eq!((c.source, c.listener), (f.source, f.listener));
+            assert_eq!(c.paths, f.paths);
+            assert_eq!(c.parameters, f.parameters);
+            assert_eq!(c.impulse_response, f.impulse_response);
+            assert_eq!(
+                (c.stats.frusta, c.stats.proposals, c.stats.paths),
+                (f.stats.frusta, f.stats.proposals, f.stats.paths)
+            );
+        }
+    }
+
+    /// Runs both and checks they agree; returns whether the beams of every
+    /// source were reused.
+    fn step(
+        scene: &AcousticScene,
+        sources: &[Vec3],
+        listeners: &[Vec3],
+        options: &SimulationOptions,
+        cache: &mut BeamCache,
+    ) -> bool {
+        let cached = simulate_cached(scene, sources, listeners, options, cache, None).unwrap();
+        assert_same(
+            &cached,
+            &simulate(scene, sources, listeners, options).unwrap(),
+        );
+        cached.iter().all(|r| r.stats.beams_reused)
+    }
+
+    #[test]
+    fn a_moving_listener_reuses_the_beams_and_hears_what_simulate_gives() {
+        let rooms = [
+            (
+                AcousticScene::new(&shoebox(2, 0.2)),
+                Vec3::new(2.0, 3.5, 1.2),
+                Vec3::new(7.3, 1.9, 1.7),
+                Vec3::new(0.5, 0.6, 0.05),
+            ),
+            (
+                AcousticScene::new(&bundled("l-room")),
+                Vec3::new(10.5, 2.0, 1.5),
+                Vec3::new(9.0, 4.0, 1.7),
+                Vec3::new(-1.0, 0.6, 0.0),
+            ),
+        ];
+        for (scene, source, start, stride) in rooms {
+            let mut cache = BeamCache::default();
+            let options = options(3);
+            for i in 0..6 {
+                let listener = start + stride * i as f32;
+                // Two listeners, one of them fixed, in the later steps.
+                let listeners = if i < 3 {
+                    vec![listener]
+                } else {
+                    vec![listener, start]
+                };
+                let reused = step(&scene, &[source], &listeners, &options, &mut cache);
+                assert_eq!(reused, i > 0, "step {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_new_source_new_options_or_a_moved_object_retrace() {
+        let mut scene = AcousticScene::new(&shoebox(1, 0.2));
+        let (source, listener) = (Vec3::new(2.0, 3.5, 1.2), Vec3::new(7.3, 1.9, 1.7));
+        let mut cache = BeamCache::default();
+        let base = options(3);
+        assert!(!step(&scene, &[source], &[listener], &base, &mut cache));
+        assert!(step(&scene, &[source], &[listener], &base, &mut cache));
+        // The source moved by one ulp.
+        let nudged = Vec3::new(f32::from_bits(2.0f32.to_bits() + 1), 3.5, 1.2);
+        assert!(!step(&scene, &[nudged], &[listener], &base, &mut cache));
+        // Only the latest call's sources are kept.
+        assert!(!step(&scene, &[source], &[listener], &base, &mut cache));
+        for changed in [
+            SimulationOptions {
+                max_order: 2,
+                ..base.clone()
+            },
+            SimulationOptions {
+                cells: CellAssignment::Sampled,
+                ..base.clone()
+            },
+        ] {
+            assert!(!step(&scene, &[source], &[listener], &changed, &mut cache));
+            assert!(step(&scene, &[source], &[listener], &changed, &mut cache));
+        }
+        // Options that only shape the response keep the beams.
+        let louder = SimulationOptions {
+            air: None,
+            ..base.clone()
+        };
+        assert!(!step(&scene, &[source], &[listener], &base, &mut cache));
+        assert!(step(&scene, &[source], &[listener], &louder, &mut cache));
+        let revision = scene.revision();
+        scene
+            .set_transform(
+                0,
+                RigidTransform::from_translation(Vec3::new(0.5, 0.0, 0.0)),
+            )
+            .unwrap();
+        assert_ne!(scene.revision(), revision);
+        assert!(!step(&scene, &[source], &[listener], &base, &mut cache));
+        assert!(step(&scene, &[source], &[listener], &base, &mut cache));
+        scene.materials[0].absorption = [0.9; 8];
+        assert!(!step(&scene, &[source], &[listener], &base, &mut cache));
+        // A second source (the first is kept), then only it: its beams are
+        // kept.
+        let other = Vec3::new(8.0, 2.0, 2.0);
+        assert!(!step(
+            &scene,
+            &[source, other],
+            &[listener],
+            &base,
+            &mut cache
+        ));
+        assert!(step(&scene, &[other], &[listener], &base, &mut cache));
+    }
+
+    #[test]
+    fn a_deadline_stops_with_an_error_and_a_generous_one_changes_nothing() {
+        let hall = AcousticScene::new(&bundled("hall-10k"));
+        let sampled = SimulationOptions {
+            cells: CellAssignment::Sampled,
+            ..options(4)
+        };
+        let (source, listener) = (Vec3::new(3.0, 12.0, 2.5), Vec3::new(22.0, 9.0, 1.7));
+        let mut cache = BeamCache::default();
+        let soon = Instant::now() + Duration::from_millis(1);
+        let e = simulate_cached(
+            &hall,
+            &[source],
+            &[listener],
+            &sampled,
+            &mut cache,
+            Some(soon),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(e, Error::DeadlineExceeded { limit_ms: 0 | 1 }),
+            "{e}"
+        );
+        // Nothing half-traced was kept.
+        let room = AcousticScene::new(&shoebox(2, 0.2));
+        let (source, listener) = (Vec3::new(2.0, 3.5, 1.2), Vec3::new(7.3, 1.9, 1.7));
+        let late = Instant::now() + Duration::from_secs(3600);
+        let options = options(3);
+        let cached = simulate_cached(
+            &room,
+            &[source],
+            &[listener],
+            &options,
+            &mut cache,
+            Some(late),
+        )
+        .unwrap();
+        assert!(!cached[0].stats.beams_reused);
+        assert_same(
+            &cached,
+            &simulate(&room, &[source], &[listener], &options).unwrap(),
+        );
+    }
+}

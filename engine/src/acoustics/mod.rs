@@ -6,6 +6,7 @@
 //! - [`frustum`]: the frustum and its window space;
 //! - [`tracer`]: frustum tracing with per-cell classification, merging and
 //!   secondary frusta;
+//! - [`beams`]: the traced frusta of one source, answering any listeners;
 //! - [`path`]: event sequences, image sources and exact validation;
 //! - [`reference`]: the exhaustive image-source solver;
 //! - [`scene`]: [`AcousticScene`], what propagation reads of a scene;
@@ -14,7 +15,10 @@
 //! - [`signal`]: arrivals to impulse responses, ISO 3382-1 parameters, WAV
 //!   files and auralization.
 
+pub mod beams;
+mod cache;
 mod cull;
+mod deadline;
 pub mod frustum;
 mod merge;
 pub mod path;
@@ -25,6 +29,8 @@ pub mod signal;
 pub mod surfaces;
 pub mod tracer;
 
-pub use propagation::{simulate, Response, SimulationOptions, SoundPath};
+pub use beams::Beams;
+pub use cache::BeamCache;
+pub use propagation::{simulate, simulate_cached, Response, SimulationOptions, SoundPath};
 pub use scene::{AcousticScene, FoundPaths};
 pub use tracer::{CellAssignment, TraceOptions, TraceStats};

@@ -7,11 +7,12 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
+use super::deadline::Deadline;
 use super::path::ValidPath;
 use super::signal::{
     self, AirConditions, Arrival, ImpulseResponse, ImpulseResponseOptions, RoomParameters,
 };
-use super::{AcousticScene, CellAssignment, TraceOptions, TraceStats};
+use super::{AcousticScene, BeamCache, CellAssignment, TraceOptions};
 use crate::scene::{Bands, BAND_COUNT, OCTAVE_BANDS_HZ};
 use crate::{Error, Result};
 
@@ -171,11 +172,17 @@ pub struct BandParameters {
 
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SimulationStats {
-    /// Frusta traced for this response's source (shared by its listeners).
+    /// Frusta traced for this response's source (shared by its listeners),
+    /// by this call or, when the beams were reused, by the call that traced
+    /// them.
     pub frusta: u64,
     pub triangle_tests: u64,
     pub proposals: u64,
     pub paths: usize,
+    /// Whether the source's beams came from the cache instead of a trace.
+    pub beams_reused: bool,
+    /// Time to find the paths: tracing (unless reused), proposing and
+    /// validating.
     pub trace_ms: f64,
     pub total_ms: f64,
     pub threads: usize,
@@ -203,7 +210,39 @@ pub fn simulate(
     listeners: &[Vec3],
     options: &SimulationOptions,
 ) -> Result<Vec<Response>> {
+    simulate_with(scene, sources, listeners, options, None, None)
+}
+
+/// [`simulate`], reusing the beams `cache` holds for a source when the
+/// source (to the bit), the trace options, the materials and the scene's
+/// [`revision`](AcousticScene::revision) are unchanged: moving listeners
+/// then cost no trace. The cache keeps the sources of this call only.
+///
+/// Past `deadline` the call stops with [`Error::DeadlineExceeded`] and
+/// returns nothing partial.
+pub fn simulate_cached(
+    scene: &AcousticScene,
+    sources: &[Vec3],
+    listeners: &[Vec3],
+    options: &SimulationOptions,
+    cache: &mut BeamCache,
+    deadline: Option<Instant>,
+) -> Result<Vec<Response>> {
+    simulate_with(scene, sources, listeners, options, Some(cache), deadline)
+}
+
+/// Without a cache, tracing tests the listeners as it goes and keeps no
+/// frusta: memory stays flat however many frusta the trace visits.
+fn simulate_with(
+    scene: &AcousticScene,
+    sources: &[Vec3],
+    listeners: &[Vec3],
+    options: &SimulationOptions,
+    mut cache: Option<&mut BeamCache>,
+    deadline: Option<Instant>,
+) -> Result<Vec<Response>> {
     let start = Instant::now();
+    let deadline = Deadline::new(deadline, start);
     let trace_options = options.trace_options()?;
     let bands = options.band_indices()?;
     let ir_options = ImpulseResponseOptions {
@@ -219,13 +258,29 @@ pub fn simulate(
         .enumerate()
         .map(|(i, &p)| scene.check_point(&format!("listener {i}"), p))
         .collect::<Result<_>>()?;
+    let source_points: Vec<DVec3> = sources
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| scene.check_point(&format!("source {i}"), p))
+        .collect::<Result<_>>()?;
+    if let Some(cache) = cache.as_deref_mut() {
+        cache.retain(scene, &trace_options, &source_points);
+    }
     let mut out = Vec::with_capacity(sources.len() * listeners.len());
-    for (s, &source) in sources.iter().enumerate() {
-        let source_point = scene.check_point(&format!("source {s}"), source)?;
+    for (s, &source) in source_points.iter().enumerate() {
         let trace_start = Instant::now();
-        let found = scene.find_paths(source_point, &listener_points, &trace_options);
+        let (found, beams_reused) = match cache.as_deref_mut() {
+            Some(cache) => {
+                cache.find_paths(scene, source, &listener_points, &trace_options, &deadline)?
+            }
+            None => (
+                scene.find_paths_until(source, &listener_points, &trace_options, &deadline)?,
+                false,
+            ),
+        };
         let trace_ms = trace_start.elapsed().as_secs_f64() * 1e3;
         for (l, paths) in found.paths.iter().enumerate() {
+            deadline.check()?;
             let arrivals: Vec<Arrival> = paths
                 .iter()
                 .map(|p| arrival(scene, p, listener_points[l], speed, options.air.as_ref()))
@@ -248,7 +303,16 @@ pub fn simulate(
                 listener: l,
                 bands_hz: bands.iter().map(|&b| OCTAVE_BANDS_HZ[b]).collect(),
                 speed_of_sound_m_s: speed,
-                stats: stats(&found.stats, sound_paths.len(), trace_ms, start),
+                stats: SimulationStats {
+                    frusta: found.stats.frusta,
+                    triangle_tests: found.stats.triangle_tests,
+                    proposals: found.stats.proposals,
+                    paths: sound_paths.len(),
+                    beams_reused,
+                    trace_ms,
+                    total_ms: start.elapsed().as_secs_f64() * 1e3,
+                    threads: rayon::current_num_threads(),
+                },
                 paths: sound_paths,
                 parameters,
                 impulse_response,
@@ -256,18 +320,6 @@ pub fn simulate(
         }
     }
     Ok(out)
-}
-
-fn stats(t: &TraceStats, paths: usize, trace_ms: f64, start: Instant) -> SimulationStats {
-    SimulationStats {
-        frusta: t.frusta,
-        triangle_tests: t.triangle_tests,
-        proposals: t.proposals,
-        paths,
-        trace_ms,
-        total_ms: start.elapsed().as_secs_f64() * 1e3,
-        threads: rayon::current_num_threads(),
-    }
 }
 
 /// The path's arrival: surface factors (pressure: `sqrt(1 - alpha)` per

@@ -1,11 +1,15 @@
 //! [`AcousticScene`]: a scene's hierarchy, materials and plane groups kept
 //! together, so that a move or a deformation updates all three at once.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use glam::{DVec3, Vec3};
 
+use super::beams::Beams;
+use super::deadline::Deadline;
 use super::path::{dedup_paths, validate, Event, ValidPath};
 use super::surfaces::Surfaces;
-use super::tracer::{trace, TraceInput, TraceOptions, TraceStats};
+use super::tracer::{trace, trace_beams, TraceInput, TraceOptions, TraceStats};
 use crate::bvh::{BuildOptions, UpdateReport};
 use crate::geometry::{RigidTransform, TriangleMesh};
 use crate::query::SceneBvh;
@@ -19,6 +23,15 @@ pub struct AcousticScene {
     pub object_names: Vec<String>,
     bvh: SceneBvh,
     surfaces: Surfaces,
+    revision: u64,
+}
+
+/// Revisions come from one process-wide counter, so two scenes share one
+/// only when one is an unchanged clone of the other: a cache keyed by the
+/// revision cannot mistake one scene, or one state of it, for another.
+fn next_revision() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 /// The paths found from one source to each listener.
@@ -38,7 +51,14 @@ impl AcousticScene {
             object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
             bvh,
             surfaces,
+            revision: next_revision(),
         }
+    }
+
+    /// Changes with every [`Self::set_transform`] and [`Self::update_mesh`]
+    /// (and differs between scenes): what traced beams are valid for.
+    pub fn revision(&self) -> u64 {
+        self.revision
     }
 
     pub fn bvh(&self) -> &SceneBvh {
@@ -51,6 +71,9 @@ impl AcousticScene {
 
     /// Moves an object rigidly.
     pub fn set_transform(&mut self, object: usize, transform: RigidTransform) -> Result<()> {
+        // Even a refused change moves the revision: dropping a cache is
+        // always safe.
+        self.revision = next_revision();
         self.bvh.set_transform(object, transform)?;
         self.surfaces = Surfaces::new(&self.bvh);
         Ok(())
@@ -64,6 +87,7 @@ impl AcousticScene {
         materials: &[MaterialId],
         threshold: f32,
     ) -> Result<UpdateReport> {
+        self.revision = next_revision();
         let report = self.bvh.update_mesh(object, mesh, materials, threshold)?;
         self.surfaces = Surfaces::new(&self.bvh);
         Ok(report)
@@ -87,19 +111,54 @@ impl AcousticScene {
         listeners: &[DVec3],
         options: &TraceOptions,
     ) -> FoundPaths {
-        use rayon::prelude::*;
-        let input = TraceInput {
+        self.find_paths_until(source, listeners, options, &Deadline::none())
+            .expect("without a deadline, tracing cannot fail")
+    }
+
+    /// [`Self::find_paths`], stopping with an error at the deadline.
+    pub(crate) fn find_paths_until(
+        &self,
+        source: DVec3,
+        listeners: &[DVec3],
+        options: &TraceOptions,
+        deadline: &Deadline,
+    ) -> Result<FoundPaths> {
+        let input = self.trace_input(source);
+        let (proposals, stats) = trace(&input, listeners, options, deadline)?;
+        let paths = self.validate_proposals(source, listeners, proposals, deadline)?;
+        Ok(FoundPaths { paths, stats })
+    }
+
+    /// Traces frusta from `source` and keeps them, to propose paths to
+    /// any listeners later ([`Beams::proposals`]).
+    pub fn trace_beams(&self, source: DVec3, options: &TraceOptions) -> Beams {
+        trace_beams(&self.trace_input(source), options, &Deadline::none())
+            .expect("without a deadline, tracing cannot fail")
+    }
+
+    pub(crate) fn trace_input(&self, source: DVec3) -> TraceInput<'_> {
+        TraceInput {
             bvh: &self.bvh,
             surfaces: &self.surfaces,
             materials: &self.materials,
             source,
-            listeners,
-        };
-        let (mut proposals, stats) = trace(&input, options);
-        let paths = proposals
+        }
+    }
+
+    /// Per listener, the valid paths among its proposals, sorted by length.
+    pub(crate) fn validate_proposals(
+        &self,
+        source: DVec3,
+        listeners: &[DVec3],
+        mut proposals: Vec<Vec<Vec<Event>>>,
+        deadline: &Deadline,
+    ) -> Result<Vec<Vec<ValidPath>>> {
+        use rayon::prelude::*;
+        proposals
             .par_iter_mut()
             .zip(listeners)
             .map(|(events, &listener)| {
+                deadline.check()?;
                 // The direct path is always proposed; every frustum of
                 // order >= 1 containing the listener proposes its events.
                 events.push(Vec::new());
@@ -113,9 +172,8 @@ impl AcousticScene {
                     .collect();
                 found.sort_by(|a, b| a.length.total_cmp(&b.length));
                 dedup_paths(&mut found);
-                found
+                Ok(found)
             })
-            .collect();
-        FoundPaths { paths, stats }
+            .collect()
     }
 }

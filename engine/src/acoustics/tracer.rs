@@ -17,13 +17,16 @@
 
 use glam::{DVec2, DVec3};
 
+use super::beams::Beams;
 use super::cull::{for_each_leaf, BoxCull};
+use super::deadline::{Deadline, CLOCK_PERIOD};
 use super::frustum::Frustum;
 use super::merge::merge_cells;
 use super::path::Event;
 use super::surfaces::{Surfaces, NO_GROUP};
 use crate::query::SceneBvh;
 use crate::scene::{Bands, Material, BAND_COUNT};
+use crate::Result;
 
 /// How far to trace.
 #[derive(Clone, Debug, PartialEq)]
@@ -84,7 +87,7 @@ pub struct TraceStats {
 }
 
 impl TraceStats {
-    fn add(mut self, o: Self) -> Self {
+    pub(crate) fn add(mut self, o: Self) -> Self {
         self.frusta += o.frusta;
         self.triangle_tests += o.triangle_tests;
         self.proposals += o.proposals;
@@ -124,34 +127,83 @@ pub(crate) struct TraceInput<'a> {
     pub surfaces: &'a Surfaces,
     pub materials: &'a [Material],
     pub source: DVec3,
-    pub listeners: &'a [DVec3],
+}
+
+/// What the tracer does with each frustum of order >= 1, the frusta that
+/// propose their events to the listeners they contain.
+pub(crate) trait Visit {
+    /// `at` indexes the frustum's last event in `history`.
+    fn visit(&mut self, frustum: &Frustum, history: &[(u32, Event)], at: u32);
+}
+
+/// Proposals per listener, tested while tracing: nothing else is kept.
+struct Proposals<'a> {
+    listeners: &'a [DVec3],
+    found: Vec<Vec<Vec<Event>>>,
+}
+
+impl Visit for Proposals<'_> {
+    fn visit(&mut self, frustum: &Frustum, history: &[(u32, Event)], at: u32) {
+        for (l, &listener) in self.listeners.iter().enumerate() {
+            if frustum.contains(listener, LISTENER_MARGIN) {
+                self.found[l].push(events_of(history, at));
+            }
+        }
+    }
 }
 
 /// Traces frusta from the source and proposes, per listener, the event
 /// sequences of every frustum that contains it.
 pub(crate) fn trace(
     input: &TraceInput,
+    listeners: &[DVec3],
     options: &TraceOptions,
-) -> (Vec<Vec<Vec<Event>>>, TraceStats) {
+    deadline: &Deadline,
+) -> Result<(Vec<Vec<Vec<Event>>>, TraceStats)> {
     use rayon::prelude::*;
-    let primaries = Frustum::sphere(input.source, options.primary_split);
-    let n_listeners = input.listeners.len();
-    primaries
+    let parts = Frustum::sphere(input.source, options.primary_split)
         .into_par_iter()
         .map_init(Scratch::default, |scratch, f| {
-            let mut proposals = vec![Vec::new(); n_listeners];
-            let stats = trace_primary(input, options, f, scratch, &mut proposals);
-            (proposals, stats)
+            let mut visitor = Proposals {
+                listeners,
+                found: vec![Vec::new(); listeners.len()],
+            };
+            let stats = trace_primary(input, options, f, scratch, &mut visitor, deadline)?;
+            Ok((visitor.found, stats))
         })
-        .reduce(
-            || (vec![Vec::new(); n_listeners], TraceStats::default()),
-            |(mut a, sa), (b, sb)| {
-                for (x, y) in a.iter_mut().zip(b) {
-                    x.extend(y);
-                }
-                (a, sa.add(sb))
-            },
-        )
+        .collect::<Result<Vec<_>>>()?;
+    let mut proposals = vec![Vec::new(); listeners.len()];
+    let mut stats = TraceStats::default();
+    for (found, s) in parts {
+        for (all, mut f) in proposals.iter_mut().zip(found) {
+            stats.proposals += f.len() as u64;
+            all.append(&mut f);
+        }
+        stats = stats.add(s);
+    }
+    Ok((proposals, stats))
+}
+
+/// Traces frusta from the source and keeps every one of order >= 1, to
+/// test any listeners against later.
+pub(crate) fn trace_beams(
+    input: &TraceInput,
+    options: &TraceOptions,
+    deadline: &Deadline,
+) -> Result<Beams> {
+    use rayon::prelude::*;
+    let parts = Frustum::sphere(input.source, options.primary_split)
+        .into_par_iter()
+        .map_init(Scratch::default, |scratch, f| {
+            let mut beams = Beams::default();
+            let stats = trace_primary(input, options, f, scratch, &mut beams, deadline)?;
+            // The arena's parents index this primary's arena: it moves
+            // along with its beams.
+            let history = std::mem::take(&mut scratch.history);
+            Ok(Beams::primary(beams, history, stats))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Beams::concat(parts))
 }
 
 /// Depth-first tracing of one primary frustum and everything it spawns.
@@ -160,8 +212,9 @@ fn trace_primary(
     options: &TraceOptions,
     primary: Frustum,
     scratch: &mut Scratch,
-    proposals: &mut [Vec<Vec<Event>>],
-) -> TraceStats {
+    visitor: &mut impl Visit,
+    deadline: &Deadline,
+) -> Result<TraceStats> {
     let mut stats = TraceStats::default();
     scratch.history.clear();
     scratch.pending.clear();
@@ -172,28 +225,29 @@ fn trace_primary(
         energy: [1.0; BAND_COUNT],
     });
     while let Some(p) = scratch.pending.pop() {
+        if stats.frusta % CLOCK_PERIOD == 0 {
+            deadline.check()?;
+        } else {
+            deadline.expired()?;
+        }
         stats.frusta += 1;
         if p.order > 0 {
-            for (l, &listener) in input.listeners.iter().enumerate() {
-                if p.frustum.contains(listener, LISTENER_MARGIN) {
-                    proposals[l].push(events_of(&scratch.history, p.history));
-                    stats.proposals += 1;
-                }
-            }
+            visitor.visit(&p.frustum, &scratch.history, p.history);
         }
         if p.order < options.max_order {
             expand(input, options, &p, scratch, &mut stats);
         }
     }
-    stats
+    Ok(stats)
 }
 
 /// Frusta are widened by this much (in window units) when testing whether
 /// they contain a listener, so a listener on the border of two frusta is
 /// proposed by both and then counted once.
-const LISTENER_MARGIN: f64 = 1e-7;
+pub(crate) const LISTENER_MARGIN: f64 = 1e-7;
 
-fn events_of(history: &[(u32, Event)], mut at: u32) -> Vec<Event> {
+/// The events ending at `at` in a `(parent, event)` arena, first first.
+pub(crate) fn events_of(history: &[(u32, Event)], mut at: u32) -> Vec<Event> {
     let mut out = Vec::new();
     while at != u32::MAX {
         let (parent, e) = history[at as usize];

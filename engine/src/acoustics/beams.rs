@@ -1,0 +1,166 @@
+//! The traced beam tree of one source: every frustum of order >= 1 with its
+//! event sequence, so that any listener set can be answered without tracing
+//! again. Frusta depend on the source, the scene and the trace options, not
+//! on the listeners: a listener moving around a fixed source only needs the
+//! containment test.
+//!
+//! Layout: beams are structure-of-arrays. The test record (apex, window
+//! matrix, near plane: 152 bytes, against 216 for a whole frustum) is what
+//! the scan over all beams streams through; the index of a beam's last
+//! event is read only for the few beams that contain a listener. Event
+//! sequences share prefixes in one `(parent, event)` arena (8 bytes per
+//! beam), as during tracing, and are materialised only for proposals: no
+//! allocation per beam.
+
+use glam::DVec3;
+
+use super::frustum::{Containment, Frustum};
+use super::path::Event;
+use super::tracer::{events_of, TraceStats, Visit, LISTENER_MARGIN};
+
+#[derive(Clone, Debug, Default)]
+pub struct Beams {
+    /// Per beam, in trace order.
+    tests: Vec<Containment>,
+    /// Per beam, its last event in `history`.
+    last_event: Vec<u32>,
+    history: Vec<(u32, Event)>,
+    stats: TraceStats,
+}
+
+impl Visit for Beams {
+    fn visit(&mut self, frustum: &Frustum, _history: &[(u32, Event)], at: u32) {
+        self.tests.push(frustum.containment());
+        self.last_event.push(at);
+    }
+}
+
+/// Beams per parallel task of [`Beams::proposals`]: large enough to hide the
+/// task's cost, small enough to spread a few thousand beams over the cores.
+const CHUNK: usize = 1024;
+
+impl Beams {
+    /// One primary frustum's beams, with its history arena and counters.
+    pub(crate) fn primary(mut beams: Beams, history: Vec<(u32, Event)>, stats: TraceStats) -> Self {
+        beams.history = history;
+        beams.stats = stats;
+        beams
+    }
+
+    /// Joins the beams of the primary frusta, in primary order.
+    pub(crate) fn concat(parts: Vec<Beams>) -> Self {
+        let mut out = Beams::default();
+        for part in parts {
+            let offset = out.history.len() as u32;
+            let shift = |i: u32| if i == u32::MAX { i } else { i + offset };
+            out.tests.extend(part.tests);
+            out.last_event
+                .extend(part.last_event.into_iter().map(shift));
+            out.history.extend(
+                part.history
+                    .into_iter()
+                    .map(|(parent, e)| (shift(parent), e)),
+            );
+            out.stats = out.stats.add(part.stats);
+        }
+        out
+    }
+
+    /// Counters of the trace that produced these beams (`proposals` is 0:
+    /// it depends on the listeners).
+    pub fn stats(&self) -> TraceStats {
+        self.stats
+    }
+
+    /// Beams kept (frusta of order >= 1).
+    pub fn len(&self) -> usize {
+        self.tests.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.tests.is_empty()
+    }
+
+    /// Per listener, the event sequences of every beam containing it: the
+    /// proposals tracing with these listeners gives, in the same order.
+    pub fn proposals(&self, listeners: &[DVec3]) -> Vec<Vec<Vec<Event>>> {
+        use rayon::prelude::*;
+        let parts: Vec<Vec<Vec<Vec<Event>>>> = self
+            .tests
+            .par_chunks(CHUNK)
+            .zip(self.last_event.par_chunks(CHUNK))
+            .map(|(tests, last)| {
+                let mut found = vec![Vec::new(); listeners.len()];
+                for (test, &at) in tests.iter().zip(last) {
+                    for (l, &listener) in listeners.iter().enumerate() {
+                        if test.contains(listener, LISTENER_MARGIN) {
+                            found[l].push(events_of(&self.history, at));
+                        }
+                    }
+                }
+                found
+            })
+            .collect();
+        let mut out = vec![Vec::new(); listeners.len()];
+        for part in parts {
+            for (all, mut found) in out.iter_mut().zip(part) {
+                all.append(&mut found);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::acoustics::deadline::Deadline;
+    use crate::acoustics::tracer::{trace, trace_beams};
+    use crate::acoustics::{AcousticScene, CellAssignment, TraceOptions};
+    use crate::scene::generate::BoxRoom;
+    use crate::scene::{Material, Scene};
+
+    #[test]
+    fn beams_propose_what_tracing_proposes() {
+        let mut room = BoxRoom::new(Vec3::ZERO, Vec3::new(10.0, 6.0, 3.0));
+        room.subdivisions = 2;
+        let scene = Scene::single_object(
+            "room",
+            room.generate().unwrap(),
+            Material::uniform("walls", 0.3).unwrap(),
+        )
+        .unwrap();
+        let scene = AcousticScene::new(&scene);
+        let input = scene.trace_input(DVec3::new(2.0, 3.5, 1.2));
+        let listeners: Vec<DVec3> = (0..7)
+            .map(|i| DVec3::new(1.0 + 1.2 * i as f64, 1.0 + 0.6 * i as f64, 1.5))
+            // On a wall's plane and on the source's cube-face border.
+            .chain([DVec3::new(10.0, 3.0, 1.5), DVec3::new(5.0, 3.5, 1.2)])
+            .collect();
+        for cells in [CellAssignment::Conservative, CellAssignment::Sampled] {
+            let options = TraceOptions {
+                max_order: 4,
+                sampling: 4,
+                cells,
+                ..TraceOptions::default()
+            };
+            let none = Deadline::none();
+            let (traced, stats) = trace(&input, &listeners, &options, &none).unwrap();
+            let beams = trace_beams(&input, &options, &none).unwrap();
+            assert_eq!(beams.proposals(&listeners), traced);
+            assert_eq!(
+                beams.stats(),
+                TraceStats {
+                    proposals: 0,
+                    ..stats
+                }
+            );
+            // Every traced frustum but the 24 primaries is a beam, and
+            // more than one task's worth, so chunks are joined in order.
+            assert_eq!(beams.len() as u64, stats.frusta - 24);
+            assert!(beams.len() > CHUNK, "{}", beams.len());
+        }
+    }
+}
