@@ -5,7 +5,7 @@ mod gltf;
 mod obj;
 mod path;
 
-pub use self::gltf::load_gltf;
+pub use self::gltf::{load_gltf, parse_gltf};
 pub use obj::{load_obj, parse_obj};
 pub use path::resolve_relative;
 
