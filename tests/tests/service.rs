@@ -1,0 +1,336 @@
+//! The service end to end: the real server on a loopback port, real HTTP
+//! and WebSocket clients.
+
+use std::time::{Duration, Instant};
+
+use frusta_tests::*;
+use serde_json::{json, Value};
+use tungstenite::Message;
+
+const IR: &str = r#"{"sources": [{"position": [2, 1.5, 1.2]}], "listeners": [{"position": [7, 1.5, 1.2]}], "max_order": 2, "sample_rate": 16000}"#;
+
+fn paths(answer: &Value) -> Vec<f64> {
+    answer["responses"][0]["paths"]
+        .as_array()
+        .expect("paths")
+        .iter()
+        .map(|p| p["distance_m"].as_f64().expect("distance"))
+        .collect()
+}
+
+#[test]
+fn upload_ir_patch_ir_changes() {
+    let data = DataDir::new("patch");
+    let server = Server::start(&data);
+    let (status, _, created) = post(&server.url("/v1/scenes"), BOX_DOC);
+    assert_eq!(status, 201, "{created}");
+    let id = created["id"].as_str().expect("id").to_owned();
+    assert_eq!(id, "box-with-panel");
+    let ir_url = server.url(&format!("/v1/scenes/{id}/impulse-responses"));
+    let (status, _, before) = post(&ir_url, IR);
+    assert_eq!(status, 200, "{before}");
+    // The panel stands between source and listener: no direct path.
+    assert!(paths(&before)[0] > 5.0 + 1e-6, "{:?}", paths(&before));
+    assert_eq!(before["revision"], 0);
+    let (status, _, moved) = patch(
+        &server.url(&format!("/v1/scenes/{id}/objects/panel")),
+        r#"{"translation": [0, 3, 0]}"#,
+    );
+    assert_eq!(status, 200, "{moved}");
+    assert_eq!(moved["action"], "transform");
+    let (_, _, after) = post(&ir_url, IR);
+    assert_eq!(after["revision"], 1);
+    assert!(
+        (paths(&after)[0] - 5.0).abs() < 1e-6,
+        "the direct path is open"
+    );
+    let (status, _, _) = delete(&server.url(&format!("/v1/scenes/{id}")));
+    assert_eq!(status, 204);
+    assert_eq!(post(&ir_url, IR).0, 404);
+}
+
+#[test]
+fn scenes_and_edits_survive_a_restart() {
+    let data = DataDir::new("restart");
+    let server = Server::start(&data);
+    let (status, _, _) = post(&server.url("/v1/scenes?id=kept"), BOX_DOC);
+    assert_eq!(status, 201);
+    let vertices = r#"{"vertices": [[4, 1, 0.5], [4, 2, 0.5], [4, 2, 2.5], [4, 1, 2.5]], "translation": [0.5, 0, 0]}"#;
+    assert_eq!(
+        patch(&server.url("/v1/scenes/kept/objects/panel"), vertices).0,
+        200
+    );
+    let edited_ir = post(&server.url("/v1/scenes/kept/impulse-responses"), IR).2;
+    assert_eq!(delete(&server.url("/v1/scenes/l-room")).0, 204);
+    server.stop();
+
+    let server = Server::start(&data);
+    let (status, _, detail) = get(&server.url("/v1/scenes/kept"));
+    assert_eq!(status, 200, "{detail}");
+    assert_eq!(detail["objects"][1]["translation"], json!([0.5, 0.0, 0.0]));
+    let restored_ir = post(&server.url("/v1/scenes/kept/impulse-responses"), IR).2;
+    assert_eq!(paths(&restored_ir), paths(&edited_ir));
+    let (_, _, list) = get(&server.url("/v1/scenes"));
+    let ids: Vec<&str> = list["scenes"]
+        .as_array()
+        .expect("scenes")
+        .iter()
+        .filter_map(|s| s["id"].as_str())
+        .collect();
+    assert_eq!(
+        ids,
+        ["kept", "shoebox"],
+        "a deleted bundled scene stays deleted"
+    );
+}
+
+#[test]
+fn every_bad_input_is_a_4xx_problem() {
+    let data = DataDir::new("bad");
+    let server = Server::start(&data);
+    let ir = server.url("/v1/scenes/shoebox/impulse-responses");
+    let p = r#"[{"position": [2, 3, 1.5]}]"#;
+    let cases: Vec<(String, String, u16)> = vec![
+        (ir.clone(), "{\"sources\": [".into(), 400),
+        (ir.clone(), format!(r#"{{"sources": {p}, "listeners": [{{"position": [1e39, 1, 1]}}]}}"#), 422),
+        (ir.clone(), format!(r#"{{"sources": {p}, "listeners": {p}, "max_order": 1000}}"#), 422),
+        (ir.clone(), format!(r#"{{"sources": {p}, "listeners": {p}, "sampling": 1000}}"#), 422),
+        (server.url("/v1/scenes/nowhere/impulse-responses"), IR.into(), 404),
+        (
+            server.url("/v1/scenes"),
+            r#"{"objects": [{"name": "t", "material": "concrete", "mesh": {"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 3]]}}]}"#.into(),
+            422,
+        ),
+        (
+            server.url("/v1/scenes"),
+            r#"{"objects": [{"name": "t", "material": "concrete", "mesh": {"vertices": [[0,0,0],[1,0,0],[0,1e39,0]], "triangles": [[0, 1, 2]]}}]}"#.into(),
+            422,
+        ),
+        (server.url("/v1/scenes/shoebox/rays"), r#"{"rays": [{"origin": [0, 0, 0], "direction": [0, 0, 0]}]}"#.into(), 422),
+        (server.url("/v1/scenes/shoebox/occlusion"), r#"{"pairs": [{"from": [0, 0, 0]}]}"#.into(), 422),
+    ];
+    for (url, body, expected) in cases {
+        let (status, content_type, problem) = post(&url, &body);
+        assert_eq!(status, expected, "{url} {body}: {problem}");
+        assert_eq!(content_type, "application/problem+json", "{url} {body}");
+        assert_eq!(problem["status"], expected);
+        assert!(problem["type"]
+            .as_str()
+            .is_some_and(|t| t.starts_with("urn:frusta:problem:")));
+        assert!(
+            problem["detail"].as_str().is_some_and(|d| d.len() > 10),
+            "{problem}"
+        );
+    }
+    let (status, _, problem) = patch(
+        &server.url("/v1/scenes/shoebox/objects/room"),
+        r#"{"vertices": [[0, 0, 0]]}"#,
+    );
+    assert_eq!(status, 422, "{problem}");
+    // Nothing was lost or changed on the way.
+    let (status, _, shoebox) = get(&server.url("/v1/scenes/shoebox"));
+    assert_eq!(status, 200);
+    assert_eq!(shoebox["revision"], 0);
+    assert_eq!(get(&server.url("/healthz")).0, 200);
+}
+
+fn ws_update(seq: u64, listener: [f64; 3]) -> Message {
+    let update = json!({
+        "seq": seq,
+        "sources": [{"position": [2, 3, 1.5]}],
+        "listeners": [{"position": listener}],
+        "options": {"max_order": 3, "sample_rate": 16000}
+    });
+    Message::Text(update.to_string().into())
+}
+
+/// The next answer: its JSON metadata and its samples.
+fn read_answer(
+    socket: &mut tungstenite::WebSocket<tungstenite::stream::MaybeTlsStream<std::net::TcpStream>>,
+) -> (Value, Vec<f32>) {
+    let meta = loop {
+        match socket.read().expect("read") {
+            Message::Text(text) => break serde_json::from_str::<Value>(&text).expect("JSON"),
+            Message::Ping(_) | Message::Pong(_) => {}
+            other => panic!("expected a text frame, got {other:?}"),
+        }
+    };
+    assert_eq!(meta["type"], "impulse_response", "{meta}");
+    let Message::Binary(bytes) = socket.read().expect("read samples") else {
+        panic!("expected the samples");
+    };
+    let samples = bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    (meta, samples)
+}
+
+#[test]
+fn stream_with_a_moving_listener() {
+    let data = DataDir::new("stream");
+    let server = Server::start(&data);
+    let (mut socket, _) =
+        tungstenite::connect(server.ws_url("/v1/scenes/shoebox/stream")).expect("connect");
+    let mut last_direct = 0.0;
+    for step in 0..6u64 {
+        let listener = [5.0 + 0.5 * step as f64, 3.0, 1.5];
+        socket.send(ws_update(step, listener)).expect("send");
+        let (meta, samples) = read_answer(&mut socket);
+        assert_eq!(meta["seq"], step);
+        assert_eq!(meta["revision"], 0);
+        let direct = meta["paths"][0]["distance_m"].as_f64().expect("distance");
+        assert!((direct - (listener[0] - 2.0)).abs() < 1e-5, "{direct}");
+        assert!(direct > last_direct);
+        last_direct = direct;
+        assert_eq!(
+            meta["stats"]["beams_reused"],
+            step > 0,
+            "only the listener moved"
+        );
+        assert_eq!(
+            samples.len(),
+            meta["frames"].as_u64().expect("frames") as usize
+        );
+        assert!(samples.iter().any(|&s| s != 0.0));
+    }
+    // A bad update is answered with a problem and the stream goes on.
+    socket
+        .send(Message::Text(
+            r#"{"listeners": [{"position": [1, 2]}]}"#.into(),
+        ))
+        .expect("send");
+    let Message::Text(text) = socket.read().expect("read") else {
+        panic!("expected a problem");
+    };
+    let problem: Value = serde_json::from_str(&text).expect("JSON");
+    assert_eq!(
+        problem["type"], "urn:frusta:problem:invalid-input",
+        "{problem}"
+    );
+    socket.send(ws_update(99, [6.0, 2.0, 1.5])).expect("send");
+    assert_eq!(read_answer(&mut socket).0["seq"], 99);
+    socket.close(None).expect("close");
+}
+
+#[test]
+fn streams_see_each_others_edits() {
+    let data = DataDir::new("shared");
+    let server = Server::start(&data);
+    assert_eq!(post(&server.url("/v1/scenes?id=box"), BOX_DOC).0, 201);
+    let url = server.ws_url("/v1/scenes/box/stream");
+    let (mut watcher, _) = tungstenite::connect(&url).expect("connect");
+    let (mut mover, _) = tungstenite::connect(&url).expect("connect");
+    let behind_panel = json!({"seq": 1, "sources": [{"position": [2, 1.5, 1.2]}], "listeners": [{"position": [7, 1.5, 1.2]}]});
+    watcher
+        .send(Message::Text(behind_panel.to_string().into()))
+        .expect("send");
+    let (before, _) = read_answer(&mut watcher);
+    assert_eq!(before["revision"], 0);
+    assert!(
+        before["paths"][0]["distance_m"].as_f64() > Some(5.0 + 1e-6),
+        "the panel blocks"
+    );
+    let edit = json!({"seq": 5, "sources": [{"position": [2, 1.5, 1.2]}], "listeners": [{"position": [7, 1.5, 1.2]}],
+        "objects": [{"object": "panel", "translation": [0, 3, 0]}]});
+    mover
+        .send(Message::Text(edit.to_string().into()))
+        .expect("send");
+    let (moved, _) = read_answer(&mut mover);
+    assert_eq!(moved["revision"], 1);
+    assert_eq!(moved["objects"][0]["action"], "transform");
+    // The watcher is told without asking, on the same revision.
+    let (seen, _) = read_answer(&mut watcher);
+    assert_eq!(seen["revision"], 1);
+    assert_eq!(
+        seen["paths"][0]["distance_m"],
+        moved["paths"][0]["distance_m"]
+    );
+}
+
+#[test]
+fn a_client_leaving_mid_stream_leaves_the_server_healthy() {
+    let data = DataDir::new("leave");
+    let server = Server::start(&data);
+    for _ in 0..3 {
+        let (mut socket, _) =
+            tungstenite::connect(server.ws_url("/v1/scenes/l-room/stream")).expect("connect");
+        socket.send(ws_update(1, [3.0, 3.0, 1.5])).expect("send");
+        // Gone before the answer: no close handshake.
+        drop(socket);
+    }
+    assert_eq!(get(&server.url("/healthz")).0, 200);
+    assert_eq!(
+        post(&server.url("/v1/scenes/shoebox/impulse-responses"), IR).0,
+        200
+    );
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let metrics = answer(client().get(&server.url("/metrics")).call()).2;
+        let text = metrics.as_str().unwrap_or_default().to_owned();
+        if text.contains("frusta_streams 0") {
+            break;
+        }
+        assert!(Instant::now() < deadline, "streams never closed:\n{text}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn shutdown_closes_streams_with_going_away() {
+    let data = DataDir::new("shutdown");
+    let server = Server::start(&data);
+    let (mut socket, _) =
+        tungstenite::connect(server.ws_url("/v1/scenes/shoebox/stream")).expect("connect");
+    socket.send(ws_update(1, [6.0, 3.0, 1.5])).expect("send");
+    read_answer(&mut socket);
+    let stopper = std::thread::spawn(move || server.stop());
+    let code = loop {
+        match socket.read() {
+            Ok(Message::Close(frame)) => break frame.map(|f| u16::from(f.code)),
+            Ok(_) => {}
+            Err(e) => panic!("no close frame: {e}"),
+        }
+    };
+    assert_eq!(code, Some(1001));
+    stopper.join().expect("the server stopped");
+}
+
+#[test]
+fn updates_faster_than_the_engine_coalesce_newest_first() {
+    let data = DataDir::new("coalesce");
+    let server = Server::start(&data);
+    let (mut socket, _) =
+        tungstenite::connect(server.ws_url("/v1/scenes/l-room/stream")).expect("connect");
+    // Moving the source retraces every time: far slower than sending.
+    let source = |seq: u64| [2.0 + 0.05 * seq as f64, 3.0, 1.5];
+    for seq in 0..20u64 {
+        let update = json!({
+            "seq": seq,
+            "sources": [{"position": source(seq)}],
+            "listeners": [{"position": [4, 6, 1.5]}],
+            "options": {"max_order": 5, "sampling": 16, "sample_rate": 8000}
+        });
+        socket
+            .send(Message::Text(update.to_string().into()))
+            .expect("send");
+    }
+    let mut answers = 0;
+    let last = loop {
+        let (meta, _) = read_answer(&mut socket);
+        answers += 1;
+        if meta["seq"] == 19 {
+            break meta;
+        }
+    };
+    assert!(
+        answers < 20,
+        "{answers} answers: updates were not coalesced"
+    );
+    let expected = ((4.0 - source(19)[0]).powi(2) + 9.0f64).sqrt();
+    let direct = last["paths"][0]["distance_m"].as_f64().expect("distance");
+    assert!(
+        (direct - expected).abs() < 1e-5,
+        "the newest source wins: {direct} vs {expected}"
+    );
+}
