@@ -9,7 +9,9 @@ use tracing_subscriber::EnvFilter;
 
 #[tokio::main]
 async fn main() -> ExitCode {
+    use std::io::IsTerminal;
     tracing_subscriber::fmt()
+        .with_ansi(std::io::stdout().is_terminal())
         .with_env_filter(
             EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info")),
         )
@@ -28,6 +30,9 @@ async fn run(config: Config) -> Result<(), String> {
     let listener = tokio::net::TcpListener::bind(config.addr)
         .await
         .map_err(|e| format!("cannot listen on {}: {e}", config.addr))?;
+    let addr = listener
+        .local_addr()
+        .map_err(|e| format!("cannot read the bound address: {e}"))?;
     let opened = config.clone();
     // Loading and building hierarchies is CPU-bound; keep it off the runtime.
     let state = tokio::task::spawn_blocking(move || frusta_server::open(&opened))
@@ -37,7 +42,7 @@ async fn run(config: Config) -> Result<(), String> {
         scenes = state.registry().list().len(),
         seconds = start.elapsed().as_secs_f64(),
         data_dir = %config.data_dir.display(),
-        addr = %config.addr,
+        addr = %addr,
         "listening"
     );
     frusta_server::serve(state, listener, shutdown_signal())
