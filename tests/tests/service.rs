@@ -334,3 +334,25 @@ fn updates_faster_than_the_engine_coalesce_newest_first() {
         "the newest source wins: {direct} vs {expected}"
     );
 }
+
+#[test]
+fn object_moves_before_any_listener_are_applied_and_stored() {
+    let data = DataDir::new("objects-only");
+    let server = Server::start(&data);
+    assert_eq!(post(&server.url("/v1/scenes?id=box"), BOX_DOC).0, 201);
+    let (mut socket, _) =
+        tungstenite::connect(server.ws_url("/v1/scenes/box/stream")).expect("connect");
+    let moves = json!({"seq": 3, "objects": [{"object": "panel", "translation": [0, 2, 0]}]});
+    socket
+        .send(Message::Text(moves.to_string().into()))
+        .expect("send");
+    let Message::Text(text) = socket.read().expect("read") else {
+        panic!("expected a text frame");
+    };
+    let answer: Value = serde_json::from_str(&text).expect("JSON");
+    assert_eq!(answer["type"], "objects_updated", "{answer}");
+    assert_eq!(answer["seq"], 3);
+    assert_eq!(answer["revision"], 1);
+    let (_, _, detail) = get(&server.url("/v1/scenes/box"));
+    assert_eq!(detail["objects"][1]["translation"], json!([0.0, 2.0, 0.0]));
+}

@@ -15,7 +15,8 @@
 //! Server to client, per source-listener pair: a text frame
 //! `{"type": "impulse_response", "seq", "revision", "compute_ms", ...}`
 //! (the fields of the HTTP route's responses), then a binary frame of
-//! interleaved little-endian f32 samples. Errors are text frames
+//! interleaved little-endian f32 samples. Object moves sent before any
+//! source and listener are answered with `{"type": "objects_updated", ...}`. Errors are text frames
 //! `{"type": "error", <problem document>}`; the stream stays open.
 
 use std::time::Instant;
@@ -261,7 +262,9 @@ impl Stream {
         }
         self.pending.objects.extend(edits);
         self.pending.seq = update.seq.or(self.pending.seq);
-        self.pending.dirty = self.pending.request.is_some() || self.current.is_some();
+        self.pending.dirty = self.pending.request.is_some()
+            || self.current.is_some()
+            || !self.pending.objects.is_empty();
         Ok(())
     }
 
@@ -271,9 +274,8 @@ impl Stream {
         if let Some(r) = pending.request {
             self.current = Some(r);
         }
-        let Some(request) = self.current.clone() else {
-            return;
-        };
+        // Without sources and listeners yet, object moves still apply.
+        let request = self.current.clone();
         let Some((mut cache, mut cached)) = self.cache.take() else {
             return;
         };
@@ -291,9 +293,12 @@ impl Stream {
                         job_state.metrics().count_update(report.action);
                         objects.push(report);
                     }
-                    let limits = job_state.limits();
-                    let (revision, responses) =
-                        simulation::run(&entry, &request, &mut cache, &mut cached, limits)?;
+                    let (revision, responses) = match &request {
+                        Some(r) => {
+                            simulation::run(&entry, r, &mut cache, &mut cached, job_state.limits())?
+                        }
+                        None => (entry.read().revision, Vec::new()),
+                    };
                     Ok(Computed {
                         seq: pending.seq,
                         revision,
@@ -318,6 +323,15 @@ impl Stream {
         computed: Computed,
     ) -> Result<(), axum::Error> {
         self.answered = Some(computed.revision);
+        if computed.responses.is_empty() {
+            let moved = serde_json::json!({
+                "type": "objects_updated",
+                "seq": computed.seq,
+                "revision": computed.revision,
+                "objects": computed.objects,
+            });
+            return socket.send(Message::Text(moved.to_string().into())).await;
+        }
         let metrics = self.state.metrics();
         for response in &computed.responses {
             let answer = Answer {
