@@ -189,6 +189,33 @@ mod cached {
     }
 
     #[test]
+    fn a_trace_over_the_beam_cap_keeps_nothing_and_still_answers_exactly() {
+        let scene = AcousticScene::new(&shoebox(2, 0.2));
+        let source = [Vec3::new(2.0, 3.5, 1.2)];
+        let options = options(3);
+        let mut capped = BeamCache::with_max_beams(10);
+        for x in [6.0, 6.5, 7.0] {
+            let listener = [Vec3::new(x, 2.0, 1.5)];
+            assert!(!step(&scene, &source, &listener, &options, &mut capped));
+        }
+        let mut roomy = BeamCache::default();
+        step(
+            &scene,
+            &source,
+            &[Vec3::new(6.0, 2.0, 1.5)],
+            &options,
+            &mut roomy,
+        );
+        assert!(step(
+            &scene,
+            &source,
+            &[Vec3::new(6.5, 2.0, 1.5)],
+            &options,
+            &mut roomy
+        ));
+    }
+
+    #[test]
     fn a_moving_listener_reuses_the_beams_and_hears_what_simulate_gives() {
         let rooms = [
             (

@@ -65,6 +65,10 @@ pub struct Limits {
     /// Simulations waiting for a core before new ones are refused (503).
     #[arg(long, env = "FRUSTA_MAX_QUEUED", default_value_t = 256)]
     pub max_queued: usize,
+    /// Frusta a stream keeps per source so that moving listeners need no
+    /// new trace (about 160 bytes each); a trace with more keeps none.
+    #[arg(long, env = "FRUSTA_MAX_CACHED_FRUSTA", default_value_t = 500_000)]
+    pub max_cached_frusta: usize,
     /// Open WebSocket streams.
     #[arg(long, env = "FRUSTA_MAX_STREAMS", default_value_t = 64)]
     pub max_streams: usize,

@@ -148,7 +148,7 @@ pub fn run(
 ) -> Result<(u64, Vec<Response>), ApiError> {
     let live = entry.read();
     if *cached_revision != Some(live.revision) {
-        *cache = BeamCache::default();
+        *cache = BeamCache::with_max_beams(cache.max_beams());
         *cached_revision = Some(live.revision);
     }
     let deadline = Instant::now() + limits.max_compute();

@@ -6,19 +6,30 @@ use glam::DVec3;
 
 use super::beams::Beams;
 use super::deadline::Deadline;
-use super::tracer::{trace_beams, TraceOptions};
+use super::tracer::{trace_keeping, TraceOptions};
 use super::{AcousticScene, FoundPaths};
 use crate::scene::Material;
 use crate::Result;
 
 /// Beams per source, valid for one scene revision, trace options and
-/// material table. Holds only the sources of the latest call, so memory is
-/// bounded by what one call needs (about 160 bytes per traced frustum).
-#[derive(Debug, Default)]
+/// material table. Holds only the sources of the latest call, and at most
+/// [`Self::max_beams`] beams per source (about 160 bytes each): a trace
+/// with more keeps none and is simply done again next time.
+#[derive(Debug)]
 pub struct BeamCache {
     key: Option<Key>,
     /// Source position (exact bits) and its beams.
     entries: Vec<([u64; 3], Beams)>,
+    max_beams: usize,
+}
+
+/// About 80 MB of beams per source.
+pub const DEFAULT_MAX_BEAMS: usize = 500_000;
+
+impl Default for BeamCache {
+    fn default() -> Self {
+        Self::with_max_beams(DEFAULT_MAX_BEAMS)
+    }
 }
 
 /// Everything beams depend on besides the source. Materials are compared
@@ -36,6 +47,18 @@ fn bits(p: DVec3) -> [u64; 3] {
 }
 
 impl BeamCache {
+    pub fn with_max_beams(max_beams: usize) -> Self {
+        Self {
+            key: None,
+            entries: Vec::new(),
+            max_beams,
+        }
+    }
+
+    pub fn max_beams(&self) -> usize {
+        self.max_beams
+    }
+
     /// Prepares a call from `sources`: forgets everything when the scene,
     /// the options or the materials changed, and the beams of any source
     /// not among `sources`.
@@ -75,18 +98,24 @@ impl BeamCache {
     ) -> Result<(FoundPaths, bool)> {
         let key = bits(source);
         let kept = self.entries.iter().position(|(k, _)| *k == key);
-        let (index, reused) = match kept {
-            Some(i) => (i, true),
+        let (proposals, stats, reused) = match kept {
+            Some(i) => {
+                let beams = &self.entries[i].1;
+                let proposals = beams.proposals(listeners);
+                let mut stats = beams.stats();
+                stats.proposals = proposals.iter().map(|p| p.len() as u64).sum();
+                (proposals, stats, true)
+            }
             None => {
-                let beams = trace_beams(&scene.trace_input(source), options, deadline)?;
-                self.entries.push((key, beams));
-                (self.entries.len() - 1, false)
+                let input = scene.trace_input(source);
+                let (proposals, stats, beams) =
+                    trace_keeping(&input, listeners, options, deadline, self.max_beams)?;
+                if let Some(beams) = beams {
+                    self.entries.push((key, beams));
+                }
+                (proposals, stats, false)
             }
         };
-        let beams = &self.entries[index].1;
-        let proposals = beams.proposals(listeners);
-        let mut stats = beams.stats();
-        stats.proposals = proposals.iter().map(|p| p.len() as u64).sum();
         let paths = scene.validate_proposals(source, listeners, proposals, deadline)?;
         Ok((FoundPaths { paths, stats }, reused))
     }

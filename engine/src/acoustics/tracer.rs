@@ -15,6 +15,8 @@
 //! every image source is proposed, and exact validation
 //! ([`validate`](super::path::validate)) rejects what is not a path.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use glam::{DVec2, DVec3};
 
 use super::beams::Beams;
@@ -152,6 +154,9 @@ impl Visit for Proposals<'_> {
     }
 }
 
+/// Per listener, the event sequences of the frusta that contain it.
+pub(crate) type Proposed = Vec<Vec<Vec<Event>>>;
+
 /// Traces frusta from the source and proposes, per listener, the event
 /// sequences of every frustum that contains it.
 pub(crate) fn trace(
@@ -159,28 +164,8 @@ pub(crate) fn trace(
     listeners: &[DVec3],
     options: &TraceOptions,
     deadline: &Deadline,
-) -> Result<(Vec<Vec<Vec<Event>>>, TraceStats)> {
-    use rayon::prelude::*;
-    let parts = Frustum::sphere(input.source, options.primary_split)
-        .into_par_iter()
-        .map_init(Scratch::default, |scratch, f| {
-            let mut visitor = Proposals {
-                listeners,
-                found: vec![Vec::new(); listeners.len()],
-            };
-            let stats = trace_primary(input, options, f, scratch, &mut visitor, deadline)?;
-            Ok((visitor.found, stats))
-        })
-        .collect::<Result<Vec<_>>>()?;
-    let mut proposals = vec![Vec::new(); listeners.len()];
-    let mut stats = TraceStats::default();
-    for (found, s) in parts {
-        for (all, mut f) in proposals.iter_mut().zip(found) {
-            stats.proposals += f.len() as u64;
-            all.append(&mut f);
-        }
-        stats = stats.add(s);
-    }
+) -> Result<(Proposed, TraceStats)> {
+    let (proposals, stats, _) = trace_keeping(input, listeners, options, deadline, 0)?;
     Ok((proposals, stats))
 }
 
@@ -191,19 +176,81 @@ pub(crate) fn trace_beams(
     options: &TraceOptions,
     deadline: &Deadline,
 ) -> Result<Beams> {
+    let (_, _, beams) = trace_keeping(input, &[], options, deadline, usize::MAX)?;
+    Ok(beams.unwrap_or_default())
+}
+
+/// Proposes for `listeners` as [`trace`] does and also keeps the beams for
+/// later listeners, unless more than `max_beams` are traced: then none are
+/// kept (`None`), so memory stays bounded whatever the scene.
+pub(crate) fn trace_keeping(
+    input: &TraceInput,
+    listeners: &[DVec3],
+    options: &TraceOptions,
+    deadline: &Deadline,
+    max_beams: usize,
+) -> Result<(Proposed, TraceStats, Option<Beams>)> {
     use rayon::prelude::*;
+    let kept = AtomicUsize::new(0);
+    let over = |n: usize| n > max_beams;
     let parts = Frustum::sphere(input.source, options.primary_split)
         .into_par_iter()
         .map_init(Scratch::default, |scratch, f| {
-            let mut beams = Beams::default();
-            let stats = trace_primary(input, options, f, scratch, &mut beams, deadline)?;
+            let mut visitor = Keeping {
+                proposals: Proposals {
+                    listeners,
+                    found: vec![Vec::new(); listeners.len()],
+                },
+                beams: Beams::default(),
+                kept: &kept,
+                max_beams,
+            };
+            let stats = trace_primary(input, options, f, scratch, &mut visitor, deadline)?;
             // The arena's parents index this primary's arena: it moves
-            // along with its beams.
-            let history = std::mem::take(&mut scratch.history);
-            Ok(Beams::primary(beams, history, stats))
+            // along with its beams, unless they are dropped anyway.
+            let beams = (!over(kept.load(Ordering::Relaxed))).then(|| {
+                let history = std::mem::take(&mut scratch.history);
+                Beams::primary(visitor.beams, history, stats)
+            });
+            Ok((visitor.proposals.found, stats, beams))
         })
         .collect::<Result<Vec<_>>>()?;
-    Ok(Beams::concat(parts))
+    let keep = !over(kept.load(Ordering::Relaxed));
+    let mut proposals = vec![Vec::new(); listeners.len()];
+    let mut stats = TraceStats::default();
+    let mut beams = Vec::with_capacity(if keep { parts.len() } else { 0 });
+    for (found, s, b) in parts {
+        for (all, mut f) in proposals.iter_mut().zip(found) {
+            stats.proposals += f.len() as u64;
+            all.append(&mut f);
+        }
+        stats = stats.add(s);
+        beams.extend(b.filter(|_| keep));
+    }
+    let beams = keep.then(|| Beams::concat(beams));
+    Ok((proposals, stats, beams))
+}
+
+/// Proposals and beams at once; stops keeping beams past the shared cap.
+struct Keeping<'a> {
+    proposals: Proposals<'a>,
+    beams: Beams,
+    kept: &'a AtomicUsize,
+    max_beams: usize,
+}
+
+impl Visit for Keeping<'_> {
+    fn visit(&mut self, frustum: &Frustum, history: &[(u32, Event)], at: u32) {
+        self.proposals.visit(frustum, history, at);
+        if self.kept.load(Ordering::Relaxed) > self.max_beams {
+            return;
+        }
+        if self.kept.fetch_add(1, Ordering::Relaxed) < self.max_beams {
+            self.beams.visit(frustum, history, at);
+        } else {
+            self.beams = Beams::default();
+        }
+    }
 }
 
 /// Depth-first tracing of one primary frustum and everything it spawns.

@@ -62,13 +62,9 @@ pub async fn create(
     let (revision, responses) = state
         .compute()
         .run(move || {
-            simulation::run(
-                &entry,
-                &request,
-                &mut BeamCache::default(),
-                &mut None,
-                &limits,
-            )
+            // One-off: listeners are tested while tracing, no frusta kept.
+            let mut no_cache = BeamCache::with_max_beams(0);
+            simulation::run(&entry, &request, &mut no_cache, &mut None, &limits)
         })
         .await??;
     let metrics = state.metrics();

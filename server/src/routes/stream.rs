@@ -151,6 +151,7 @@ impl Stream {
         entry: std::sync::Arc<SceneEntry>,
         permit: OwnedSemaphorePermit,
     ) -> Self {
+        let max_beams = state.limits().max_cached_frusta;
         Self {
             state,
             caller,
@@ -158,7 +159,7 @@ impl Stream {
             _permit: permit,
             pending: Pending::default(),
             current: None,
-            cache: Some((BeamCache::default(), None)),
+            cache: Some((BeamCache::with_max_beams(max_beams), None)),
             answered: None,
         }
     }
@@ -281,6 +282,7 @@ impl Stream {
         };
         let state = self.state.clone();
         let entry = self.entry.clone();
+        let max_beams = cache.max_beams();
         tokio::spawn(async move {
             let job_state = state.clone();
             let job = move || {
@@ -311,7 +313,7 @@ impl Stream {
             };
             let result = match state.compute().run(job).await {
                 Ok(r) => r,
-                Err(e) => (BeamCache::default(), None, Err(e)),
+                Err(e) => (BeamCache::with_max_beams(max_beams), None, Err(e)),
             };
             let _ = done.send(result).await;
         });
