@@ -3,10 +3,11 @@
 //! move; ray and visibility queries on the same hierarchies.
 //!
 //! The binary is a thin shell over [`open`] and [`serve`], which tests and
-//! embedders call directly.
+//! embedders call directly, or through [`BackgroundServer`].
 
 mod app;
 mod auth;
+mod background;
 mod compute;
 pub mod config;
 mod error;
@@ -22,6 +23,7 @@ use std::path::Path;
 use frusta_engine::scene::Scene;
 
 pub use app::{router, AppState};
+pub use background::BackgroundServer;
 pub use config::Config;
 
 use registry::{now_unix_ms, Registry};

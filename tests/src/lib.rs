@@ -2,20 +2,13 @@
 //! a free loopback port over its own data directory, and small HTTP and
 //! WebSocket helpers.
 
-use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::thread::JoinHandle;
 
 use serde_json::Value;
-use tokio::sync::oneshot;
 
-/// A running server; dropping it shuts it down gracefully.
-pub struct Server {
-    pub addr: SocketAddr,
-    stop: Option<oneshot::Sender<()>>,
-    thread: Option<JoinHandle<()>>,
-}
+/// A running server on a free loopback port; dropping it shuts it down.
+pub struct Server(frusta_server::BackgroundServer);
 
 /// A data directory that outlives server restarts, removed on drop.
 pub struct DataDir(pub PathBuf);
@@ -57,64 +50,22 @@ impl Server {
         Self::start_with(data.config())
     }
 
-    pub fn start_with(config: frusta_server::Config) -> Self {
-        let (addr_tx, addr_rx) = std::sync::mpsc::channel();
-        let (stop, stopped) = oneshot::channel::<()>();
-        let thread = std::thread::spawn(move || {
-            let runtime = tokio::runtime::Builder::new_multi_thread()
-                .worker_threads(2)
-                .enable_all()
-                .build()
-                .expect("runtime");
-            runtime.block_on(async move {
-                let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
-                    .await
-                    .expect("bind");
-                let state = frusta_server::open(&config).expect("open the data directory");
-                addr_tx
-                    .send(listener.local_addr().expect("address"))
-                    .expect("send address");
-                frusta_server::serve(state, listener, async {
-                    let _ = stopped.await;
-                })
-                .await
-                .expect("serve");
-            });
-        });
-        let addr = addr_rx.recv().expect("the server started");
-        Self {
-            addr,
-            stop: Some(stop),
-            thread: Some(thread),
-        }
+    pub fn start_with(mut config: frusta_server::Config) -> Self {
+        config.addr = ([127, 0, 0, 1], 0).into();
+        Self(frusta_server::BackgroundServer::start(config).expect("the server starts"))
     }
 
     pub fn url(&self, path: &str) -> String {
-        format!("http://{}{path}", self.addr)
+        format!("{}{path}", self.0.url())
     }
 
     pub fn ws_url(&self, path: &str) -> String {
-        format!("ws://{}{path}", self.addr)
+        format!("ws://{}{path}", self.0.addr)
     }
 
     /// Shuts down gracefully and waits until every task has ended.
-    pub fn stop(mut self) {
-        self.shutdown();
-    }
-
-    fn shutdown(&mut self) {
-        if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
-        }
-        if let Some(thread) = self.thread.take() {
-            thread.join().expect("server thread");
-        }
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        self.shutdown();
+    pub fn stop(self) {
+        self.0.stop();
     }
 }
 
