@@ -1,9 +1,14 @@
 //! `frusta`: offline tools for inspecting scenes, tracing single rays and
-//! computing impulse responses, without running the service.
+//! computing impulse responses, and a client of `frusta-server` for the
+//! same work on its scenes.
 
 mod auralize;
 mod info;
 mod ir;
+mod progress;
+mod remote;
+mod report;
+mod simulation_args;
 mod trace;
 mod vec3;
 
@@ -17,9 +22,22 @@ use glam::Vec3;
 #[command(
     name = "frusta",
     version,
-    about = "Inspect frusta scenes, trace rays, compute impulse responses"
+    about = "Inspect frusta scenes, trace rays, compute impulse responses, offline or on a frusta server"
 )]
 struct Cli {
+    /// The frusta server for `scenes`, `stream` and `ir --scene-id`, e.g.
+    /// `http://127.0.0.1:8080`; offline commands ignore it.
+    #[arg(long, global = true, env = "FRUSTA_SERVER", value_name = "URL")]
+    server: Option<String>,
+    /// API key for a server that requires one, sent as `Authorization: Bearer KEY`.
+    #[arg(
+        long,
+        global = true,
+        env = "FRUSTA_API_KEY",
+        hide_env_values = true,
+        value_name = "KEY"
+    )]
+    api_key: Option<String>,
     #[command(subcommand)]
     command: Command,
 }
@@ -46,8 +64,17 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Impulse response from a source to a listener by frustum tracing.
+    /// Impulse response from a source to a listener by frustum tracing,
+    /// here or (with `--scene-id`) on the server.
     Ir(Box<ir::IrArgs>),
+    /// The server's scenes (needs `--server`).
+    Scenes {
+        #[command(subcommand)]
+        command: remote::scenes::ScenesCommand,
+    },
+    /// Stream impulse responses from the server to a moving listener and
+    /// measure latency (needs `--server`).
+    Stream(Box<remote::stream::StreamArgs>),
     /// Convolve a dry WAV with an impulse response WAV.
     Auralize {
         /// Impulse response WAV (e.g. from `frusta ir --out`).
@@ -76,18 +103,25 @@ enum SceneCommand {
 
 fn main() -> ExitCode {
     restore_default_sigpipe();
-    let result = match Cli::parse().command {
+    let cli = Cli::parse();
+    let server = || remote::Server::new(cli.server.as_deref(), cli.api_key.as_deref());
+    let result = match &cli.command {
         Command::Scene {
             command: SceneCommand::Info { path, json },
-        } => info::run(&path, json),
+        } => info::run(path, *json),
         Command::Trace {
             scene,
             origin,
             direction,
             json,
-        } => trace::run(&scene, origin, direction, json),
-        Command::Ir(args) => ir::run(&args),
-        Command::Auralize { ir, dry, out } => auralize::run(&ir, &dry, &out),
+        } => trace::run(scene, *origin, *direction, *json),
+        Command::Ir(args) => match &args.scene_id {
+            Some(id) => server().and_then(|s| remote::ir::run(&s, id, args)),
+            None => ir::run(args),
+        },
+        Command::Scenes { command } => server().and_then(|s| remote::scenes::run(&s, command)),
+        Command::Stream(args) => server().and_then(|s| remote::stream::run(&s, args)),
+        Command::Auralize { ir, dry, out } => auralize::run(ir, dry, out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,68 @@
+//! The simulation flags `frusta ir` and `frusta stream` share, so that a
+//! simulation asked of the server is the one the same flags ask offline.
+
+use clap::Args;
+use frusta_engine::acoustics::signal::Channels;
+use frusta_engine::acoustics::{CellAssignment, SimulationOptions};
+use glam::Vec3;
+
+use crate::vec3;
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Cells {
+    Conservative,
+    Sampled,
+}
+
+#[derive(Args)]
+pub struct SimulationArgs {
+    /// Source position `X,Y,Z`.
+    #[arg(long, value_parser = vec3::parse, allow_hyphen_values = true)]
+    pub source: Vec3,
+    /// Listener position `X,Y,Z`.
+    #[arg(long, value_parser = vec3::parse, allow_hyphen_values = true)]
+    pub listener: Vec3,
+    /// Highest reflection order.
+    #[arg(long, default_value_t = 4)]
+    max_order: u32,
+    /// Sub-frusta per frustum side (N).
+    #[arg(long, default_value_t = 8)]
+    sampling: u32,
+    /// Hand sub-frusta to every triangle they touch (`conservative`: every
+    /// image source) or to what their sample rays hit (`sampled`: faster in
+    /// detailed scenes).
+    #[arg(long, value_enum, default_value_t = Cells::Conservative)]
+    cells: Cells,
+    #[arg(long, default_value_t = 48_000)]
+    sample_rate: u32,
+    /// Turn air absorption (ISO 9613-1, 20 °C, 50 % RH) off.
+    #[arg(long)]
+    no_air: bool,
+    /// Two channels from a spherical-head model instead of one.
+    #[arg(long)]
+    binaural: bool,
+}
+
+impl SimulationArgs {
+    /// The simulation options these flags ask for; the server takes the
+    /// same type as JSON.
+    pub fn options(&self) -> SimulationOptions {
+        let defaults = SimulationOptions::default();
+        SimulationOptions {
+            max_order: self.max_order,
+            sampling: self.sampling,
+            cells: match self.cells {
+                Cells::Conservative => CellAssignment::Conservative,
+                Cells::Sampled => CellAssignment::Sampled,
+            },
+            sample_rate: self.sample_rate,
+            air: if self.no_air { None } else { defaults.air },
+            channels: if self.binaural {
+                Channels::Binaural
+            } else {
+                Channels::Mono
+            },
+            ..defaults
+        }
+    }
+}
