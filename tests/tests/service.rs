@@ -203,11 +203,14 @@ fn stream_with_a_moving_listener() {
     let Message::Text(text) = socket.read().expect("read") else {
         panic!("expected a problem");
     };
-    let problem: Value = serde_json::from_str(&text).expect("JSON");
+    let frame: Value = serde_json::from_str(&text).expect("JSON");
+    assert_eq!(frame["type"], "error");
+    let problem = &frame["problem"];
     assert_eq!(
         problem["type"], "urn:frusta:problem:invalid-input",
-        "{problem}"
+        "{frame}"
     );
+    assert_eq!(problem["status"], 422);
     socket.send(ws_update(99, [6.0, 2.0, 1.5])).expect("send");
     assert_eq!(read_answer(&mut socket).0["seq"], 99);
     socket.close(None).expect("close");

@@ -16,7 +16,9 @@
 //! `{"type": "impulse_response", "seq", "revision", "compute_ms", ...}`
 //! (the fields of the HTTP route's responses), then a binary frame of
 //! interleaved little-endian f32 samples. Object moves sent before any
-//! source and listener are answered with `{"type": "objects_updated", ...}`. Errors are text frames
+//! source and listener are answered with `{"type": "objects_updated", ...}`.
+//! Errors are `{"type": "error", "problem": <problem document>}`; the
+//! stream stays open. Errors are text frames
 //! `{"type": "error", <problem document>}`; the stream stays open.
 
 use std::time::Instant;
@@ -78,7 +80,7 @@ struct Answer<'a> {
 struct ErrorFrame<'a> {
     #[serde(rename = "type")]
     kind: &'static str,
-    #[serde(flatten)]
+    /// Nested, not flattened: the problem has a `type` of its own.
     problem: &'a Problem,
 }
 

@@ -43,14 +43,16 @@ pub struct StreamArgs {
 
 type Socket = WebSocket<MaybeTlsStream<TcpStream>>;
 
-/// A text frame from the server. Untagged, because error frames carry
-/// `type` twice (`"error"` and the problem's own type), which a tagged
-/// enum refuses as a duplicate; their fields tell the two apart.
+/// A text frame from the server.
 #[derive(Deserialize)]
-#[serde(untagged)]
+#[serde(tag = "type", rename_all = "snake_case")]
 enum Frame {
-    Answer(Answer),
-    Error(Problem),
+    ImpulseResponse(Answer),
+    /// Another client's object move answered without samples.
+    ObjectsUpdated {},
+    Error {
+        problem: Problem,
+    },
 }
 
 #[derive(Deserialize)]
@@ -175,8 +177,9 @@ fn answer_to(socket: &mut Socket, seq: u64) -> Result<Answer, Box<dyn Error>> {
             _ => continue,
         };
         let answer = match serde_json::from_str(&text)? {
-            Frame::Answer(answer) => answer,
-            Frame::Error(problem) => return Err(problem.into()),
+            Frame::ImpulseResponse(answer) => answer,
+            Frame::ObjectsUpdated {} => continue,
+            Frame::Error { problem } => return Err(problem.into()),
         };
         let expected = answer.frames * answer.channels * 4;
         let got = match socket.read()? {
