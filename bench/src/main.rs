@@ -3,14 +3,16 @@
 //! `frusta-bench bvh --mesh PATH [--json] [--rays N]` compares our BVH with
 //! peer libraries on the same mesh and rays (see `bvh_bench`). Further
 //! `frusta-bench propagation [--json] [--quick] [--plot FILE.png]` sweeps
-//! frustum tracing against the image-source reference (see `propagation`).
-//! `serve` will join [`Command`].
+//! frustum tracing against the image-source reference (see `propagation`),
+//! and `frusta-bench serve [--json] [--quick] [--url URL]` loads the service
+//! with impulse-response requests and a WebSocket stream (see `serve`).
 
 mod bvh_bench;
 mod mesh;
 mod propagation;
 mod rays;
 mod report;
+mod serve;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -36,6 +38,9 @@ enum Command {
     /// Specular paths by frustum tracing vs the exact image-source
     /// reference over sampling N and order (pyroomacoustics as a peer).
     Propagation(propagation::Args),
+    /// The service under load: concurrent impulse-response requests, then
+    /// a closed-loop WebSocket stream (listener moving, then source).
+    Serve(serve::Args),
 }
 
 #[derive(clap::Args)]
@@ -72,6 +77,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Bvh(args) => bvh(args),
         Command::Propagation(args) => propagation::run(args),
+        Command::Serve(args) => serve::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
