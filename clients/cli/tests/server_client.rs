@@ -115,13 +115,7 @@ fn scenes_are_listed_uploaded_and_deleted() {
     assert_eq!(id.trim(), "small-box");
     let id = stdout(&server.frusta(&["scenes", "upload", path_str(&doc), "--id", "mine"]));
     assert_eq!(id.trim(), "mine");
-    let list = stdout_json(&server.frusta(&["scenes", "list", "--json"]));
-    let mine = list["scenes"]
-        .as_array()
-        .expect("scenes")
-        .iter()
-        .find(|s| s["id"] == "mine")
-        .expect("the upload is listed");
+    let mine = listed(&server, "mine");
     assert_eq!(mine["triangles"], 12);
     assert_eq!(mine["materials"][0], "walls");
 
@@ -150,13 +144,7 @@ fn a_document_that_references_a_mesh_file_is_uploaded_with_the_mesh() {
     );
     let id = stdout(&server.frusta(&["scenes", "upload", path_str(&doc)]));
     assert_eq!(id.trim(), "with-file");
-    let list = stdout_json(&server.frusta(&["scenes", "list", "--json"]));
-    let scene = list["scenes"]
-        .as_array()
-        .expect("scenes")
-        .iter()
-        .find(|s| s["id"] == "with-file")
-        .expect("the upload is listed");
+    let scene = listed(&server, "with-file");
     assert_eq!(scene["triangles"], 1);
 }
 
@@ -166,13 +154,7 @@ fn an_obj_upload_is_one_object_named_after_the_file() {
     let obj = server.file("panel.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     let id = stdout(&server.frusta(&["scenes", "upload", path_str(&obj), "--id", "tri"]));
     assert_eq!(id.trim(), "tri");
-    let list = stdout_json(&server.frusta(&["scenes", "list", "--json"]));
-    let tri = list["scenes"]
-        .as_array()
-        .expect("scenes")
-        .iter()
-        .find(|s| s["id"] == "tri")
-        .expect("the upload is listed");
+    let tri = listed(&server, "tri");
     assert_eq!(tri["objects"][0]["name"], "panel");
     assert_eq!(tri["triangles"], 1);
 }
@@ -348,4 +330,16 @@ fn the_api_key_comes_from_the_flag_or_the_environment() {
         .output()
         .expect("run frusta");
     assert!(stdout(&out).contains("1 updates in"));
+}
+
+/// The scene `id` as `frusta scenes list --json` shows it.
+fn listed(server: &Server, id: &str) -> serde_json::Value {
+    let list = stdout_json(&server.frusta(&["scenes", "list", "--json"]));
+    list["scenes"]
+        .as_array()
+        .expect("scenes")
+        .iter()
+        .find(|s| s["id"] == id)
+        .unwrap_or_else(|| panic!("{id} is not listed: {list}"))
+        .clone()
 }

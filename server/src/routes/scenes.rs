@@ -7,7 +7,7 @@ use axum::http::{header, HeaderMap, StatusCode};
 use axum::{Extension, Json};
 use frusta_engine::query::SceneBvhStats;
 use frusta_engine::scene::load::{parse_gltf, parse_obj};
-use frusta_engine::scene::{builtin_material, Scene};
+use frusta_engine::scene::{builtin_material, MeshSpec, Scene, SceneDocument};
 use http_body_util::{BodyExt, LengthLimitError, Limited};
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
@@ -186,14 +186,11 @@ pub async fn create(
     let summary = state
         .compute()
         .run(move || {
-            let scene = parse(&content_type, &bytes, &query)?;
             let limits = job_state.limits();
+            let scene = parse(&content_type, &bytes, &query, limits.max_triangles)?;
             let triangles = scene.triangle_count();
             if triangles > limits.max_triangles {
-                return Err(ApiError::LimitExceeded(format!(
-                    "the scene has {triangles} triangles; this server takes at most {}",
-                    limits.max_triangles
-                )));
+                return Err(too_many_triangles(triangles as u64, limits.max_triangles));
             }
             let registry = job_state.registry();
             let total = registry.total_triangles();
@@ -224,14 +221,26 @@ pub async fn create(
     Ok((StatusCode::CREATED, headers, Json(summary)))
 }
 
-fn parse(content_type: &str, bytes: &[u8], query: &CreateQuery) -> Result<Scene, ApiError> {
+fn parse(
+    content_type: &str,
+    bytes: &[u8],
+    query: &CreateQuery,
+    max_triangles: usize,
+) -> Result<Scene, ApiError> {
     let text = || {
         std::str::from_utf8(bytes)
             .map_err(|e| ApiError::Invalid(format!("the body is not UTF-8: {e}")))
     };
     let mesh = match content_type {
         "application/json" => {
-            return Scene::from_json_str(text()?, None).map_err(ApiError::from_engine)
+            let document = SceneDocument::parse(text()?).map_err(ApiError::from_engine)?;
+            // Generated meshes are checked before they exist: a small
+            // document can ask for millions of triangles.
+            let bound = triangle_bound(&document);
+            if bound > max_triangles as u64 {
+                return Err(too_many_triangles(bound, max_triangles));
+            }
+            return document.build(None).map_err(ApiError::from_engine);
         }
         "model/obj" | "text/plain" => parse_obj(text()?),
         "model/gltf-binary" | "model/gltf+json" | "application/octet-stream" => {
@@ -249,6 +258,31 @@ fn parse(content_type: &str, bytes: &[u8], query: &CreateQuery) -> Result<Scene,
         .ok_or_else(|| ApiError::Invalid(format!("`{material_name}` is not a library material")))?;
     Scene::single_object(query.object.as_deref().unwrap_or("mesh"), mesh, material)
         .map_err(ApiError::from_engine)
+}
+
+/// An upper bound on the triangles `document` builds (file meshes are
+/// refused later, uploads cannot reference files).
+fn triangle_bound(document: &SceneDocument) -> u64 {
+    document
+        .objects
+        .iter()
+        .map(|o| match &o.mesh {
+            MeshSpec::Inline(m) => m.triangles.len() as u64,
+            MeshSpec::BoxRoom(b) => 12 * u64::from(b.subdivisions).pow(2),
+            MeshSpec::LRoom(l) => 36 * u64::from(l.subdivisions).pow(3),
+            // Fixed: two boxes, a wall and a door.
+            MeshSpec::TwoRooms(_) => 200,
+            // The generator lands within a few percent of its target.
+            MeshSpec::Hall(h) => h.target_triangles.saturating_add(h.target_triangles / 10),
+            MeshSpec::File(_) => 0,
+        })
+        .fold(0, u64::saturating_add)
+}
+
+fn too_many_triangles(triangles: u64, max: usize) -> ApiError {
+    ApiError::LimitExceeded(format!(
+        "the scene has {triangles} triangles; this server takes at most {max}"
+    ))
 }
 
 fn check_id(id: &str) -> Result<(), ApiError> {
@@ -376,6 +410,32 @@ mod tests {
         let (_, _, b) = server.send(post_json("/v1/scenes", &doc)).await;
         assert_eq!(a["id"], "my-room");
         assert_eq!(b["id"], "my-room-2");
+    }
+
+    #[tokio::test]
+    async fn a_small_document_asking_for_a_huge_mesh_is_refused_before_it_is_built() {
+        let server = TestServer::with(|c| c.limits.max_triangles = 10_000);
+        for mesh in [
+            r#"{"hall": {"target_triangles": 50000000}}"#,
+            r#"{"box_room": {"min": [0, 0, 0], "max": [1, 1, 1], "subdivisions": 2000}}"#,
+            r#"{"l_room": {"min": [0, 0, 0], "max": [9, 9, 3], "cutout": [3, 3], "subdivisions": 400}}"#,
+        ] {
+            let doc = format!(
+                r#"{{"objects": [{{"name": "big", "material": "concrete", "mesh": {mesh}}}]}}"#
+            );
+            let (status, _, problem) = server.send(post_json("/v1/scenes", &doc)).await;
+            assert_eq!(
+                status,
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "{mesh}: {problem}"
+            );
+            assert_eq!(problem["type"], "urn:frusta:problem:limit-exceeded");
+        }
+        let hall = r#"{"objects": [{"name": "h", "material": "concrete", "mesh": {"hall": {"target_triangles": 9000}}}]}"#;
+        assert_eq!(
+            server.send(post_json("/v1/scenes", hall)).await.0,
+            StatusCode::CREATED
+        );
     }
 
     #[tokio::test]
