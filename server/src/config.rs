@@ -59,6 +59,10 @@ pub struct Limits {
     /// Most source-listener pairs in one request.
     #[arg(long, env = "FRUSTA_MAX_PAIRS", default_value_t = 64)]
     pub max_pairs: usize,
+    /// Samples one request may produce in the worst case (pairs x channels
+    /// x sample rate x the 60 s longest impulse response), in MiB.
+    #[arg(long, env = "FRUSTA_MAX_IR_MIB", default_value_t = 1024)]
+    pub max_ir_mib: u64,
     /// Compute time one simulation may take, in milliseconds.
     #[arg(long, env = "FRUSTA_MAX_COMPUTE_MS", default_value_t = 30_000)]
     pub max_compute_ms: u64,

@@ -5,6 +5,8 @@
 
 use std::time::Instant;
 
+use frusta_engine::acoustics::signal::impulse_response::MAX_DURATION_S;
+use frusta_engine::acoustics::signal::Channels;
 use frusta_engine::acoustics::{simulate_cached, BeamCache, Response, SimulationOptions};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -72,6 +74,26 @@ impl IrRequest {
             return Err(ApiError::LimitExceeded(format!(
                 "sampling {} exceeds this server's limit of {}",
                 self.options.sampling, limits.max_sampling
+            )));
+        }
+        let channels: u64 = match self.options.channels {
+            Channels::Mono => 1,
+            Channels::Binaural => 2,
+        };
+        // The IR's length is known only after tracing; bound its memory by
+        // the longest one the engine renders.
+        let worst_mib = pairs as f64
+            * channels as f64
+            * f64::from(self.options.sample_rate)
+            * MAX_DURATION_S
+            * 4.0
+            / (1024.0 * 1024.0);
+        if worst_mib > limits.max_ir_mib as f64 {
+            return Err(ApiError::LimitExceeded(format!(
+                "{pairs} pairs x {channels} channels at {} Hz could need {worst_mib:.0} MiB of samples \
+                 (impulse responses up to {MAX_DURATION_S} s); this server allows {} MiB: ask for fewer \
+                 pairs, a lower sample_rate or mono",
+                self.options.sample_rate, limits.max_ir_mib
             )));
         }
         self.options

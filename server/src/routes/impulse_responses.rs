@@ -134,7 +134,10 @@ mod tests {
 
     #[tokio::test]
     async fn bad_requests_are_4xx_problems() {
-        let server = TestServer::with(|c| c.limits.max_pairs = 2);
+        let server = TestServer::with(|c| {
+            c.limits.max_pairs = 2;
+            c.limits.max_ir_mib = 64;
+        });
         let s = r#"[{"position": [2, 3, 1.5]}]"#;
         let cases = [
             (
