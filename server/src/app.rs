@@ -115,6 +115,63 @@ impl AppState {
 )]
 struct ApiDoc;
 
+/// Documents, on every `/v1` operation, the problem documents any request
+/// can meet (malformed body, missing key, overload, timeout), so each route
+/// lists only its own. Applied after the routes are collected: `ApiDoc`'s
+/// own modifiers run before there are any paths.
+struct ProblemResponses;
+
+impl utoipa::Modify for ProblemResponses {
+    fn modify(&self, openapi: &mut utoipa::openapi::OpenApi) {
+        use utoipa::openapi::{ContentBuilder, Ref, ResponseBuilder};
+        let common = [
+            ("400", "Malformed JSON"),
+            ("401", "Missing or unknown API key (servers with keys)"),
+            ("413", "Body above this route's limit"),
+            ("415", "Unsupported content type"),
+            (
+                "422",
+                "Well-formed input the server cannot use; the detail names the field",
+            ),
+            ("503", "Too many simulations or streams waiting; retry"),
+            ("504", "The request took longer than the server's timeout"),
+        ];
+        for (path, item) in openapi.paths.paths.iter_mut() {
+            if !path.starts_with("/v1/") {
+                continue;
+            }
+            let not_found = path
+                .contains("{id}")
+                .then_some(("404", "No such scene (or object)"));
+            let operations = [
+                &mut item.get,
+                &mut item.post,
+                &mut item.patch,
+                &mut item.delete,
+                &mut item.put,
+            ];
+            for operation in operations.into_iter().flatten() {
+                for (status, description) in common.into_iter().chain(not_found) {
+                    let problem = ResponseBuilder::new()
+                        .description(description)
+                        .content(
+                            "application/problem+json",
+                            ContentBuilder::new()
+                                .schema(Some(Ref::from_schema_name("Problem")))
+                                .build(),
+                        )
+                        .build();
+                    operation
+                        .responses
+                        .responses
+                        .entry(status.to_owned())
+                        .or_insert(problem.into());
+                }
+            }
+        }
+    }
+}
+
 struct BearerAuth;
 
 impl utoipa::Modify for BearerAuth {
@@ -129,7 +186,7 @@ impl utoipa::Modify for BearerAuth {
 }
 
 pub fn router(state: AppState) -> Router {
-    let (v1, api) = OpenApiRouter::with_openapi(ApiDoc::openapi())
+    let (v1, mut api) = OpenApiRouter::with_openapi(ApiDoc::openapi())
         .routes(routes!(scenes::list, scenes::create))
         .routes(routes!(scenes::detail, scenes::delete))
         .routes(routes!(objects::patch))
@@ -140,6 +197,7 @@ pub fn router(state: AppState) -> Router {
         .routes(routes!(occlusion::check))
         .layer(from_fn_with_state(state.clone(), auth::authenticate))
         .split_for_parts();
+    utoipa::Modify::modify(&ProblemResponses, &mut api);
     Router::new()
         .merge(v1)
         .route("/healthz", get(health::healthz))

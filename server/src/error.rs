@@ -25,6 +25,9 @@ pub enum ApiError {
     /// 422 shape).
     #[error("{detail}")]
     BadBody { status: StatusCode, detail: String },
+    /// A stream route reached without a valid WebSocket upgrade.
+    #[error("this route speaks WebSocket: {detail}")]
+    BadUpgrade { status: StatusCode, detail: String },
     #[error("{count} rays in one request; at most {max} are allowed")]
     TooManyRays { count: usize, max: usize },
     #[error("ray {index}: {reason}")]
@@ -74,7 +77,7 @@ impl ApiError {
                 StatusCode::NOT_FOUND
             }
             Self::SceneExists(_) => StatusCode::CONFLICT,
-            Self::BadBody { status, .. } => *status,
+            Self::BadBody { status, .. } | Self::BadUpgrade { status, .. } => *status,
             Self::TooManyRays { .. } => StatusCode::PAYLOAD_TOO_LARGE,
             Self::InvalidRay { .. }
             | Self::Invalid(_)
@@ -100,6 +103,7 @@ impl ApiError {
             Self::UnknownObject(_) => ("unknown-object", "Unknown object"),
             Self::RouteNotFound(_) => ("unknown-route", "Unknown route"),
             Self::BadBody { .. } => ("bad-body", "Malformed request body"),
+            Self::BadUpgrade { .. } => ("bad-upgrade", "Not a WebSocket upgrade"),
             Self::TooManyRays { .. } => ("too-many-rays", "Too many rays"),
             Self::InvalidRay { .. } => ("invalid-ray", "Invalid ray"),
             Self::Invalid(_) => ("invalid-input", "Invalid input"),

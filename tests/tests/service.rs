@@ -122,6 +122,11 @@ fn every_bad_input_is_a_4xx_problem() {
             "{problem}"
         );
     }
+    // A plain GET on a stream is told what the route wants.
+    let (status, content_type, problem) = get(&server.url("/v1/scenes/shoebox/stream"));
+    assert_eq!(status, 400, "{problem}");
+    assert_eq!(content_type, "application/problem+json");
+    assert_eq!(problem["type"], "urn:frusta:problem:bad-upgrade");
     let (status, _, problem) = patch(
         &server.url("/v1/scenes/shoebox/objects/room"),
         r#"{"vertices": [[0, 0, 0]]}"#,

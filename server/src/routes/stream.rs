@@ -23,6 +23,7 @@
 
 use std::time::Instant;
 
+use axum::extract::ws::rejection::WebSocketUpgradeRejection;
 use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Path, State};
 use axum::response::Response;
@@ -96,9 +97,13 @@ pub async fn connect(
     State(state): State<AppState>,
     Extension(caller): Extension<Caller>,
     Path(id): Path<String>,
-    ws: WebSocketUpgrade,
+    ws: Result<WebSocketUpgrade, WebSocketUpgradeRejection>,
 ) -> Result<Response, ApiError> {
     let entry = state.registry().get(&id)?;
+    let ws = ws.map_err(|r| ApiError::BadUpgrade {
+        status: r.status(),
+        detail: r.body_text(),
+    })?;
     let permit = state
         .streams()
         .clone()
