@@ -57,3 +57,37 @@ impl ComputePool {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test]
+    async fn a_full_queue_answers_busy_and_a_panic_is_an_internal_error() {
+        let pool = ComputePool::new(1);
+        let (release, wait) = std::sync::mpsc::channel::<()>();
+        let blocked = pool.clone();
+        let first = tokio::spawn(async move { blocked.run(move || wait.recv().is_ok()).await });
+        // Until the first job ends, its permit is taken.
+        while pool.permits.available_permits() > 0 {
+            tokio::task::yield_now().await;
+        }
+        let refused = pool.run(|| ()).await;
+        assert!(
+            matches!(refused, Err(ApiError::Busy { queued: 1 })),
+            "{refused:?}"
+        );
+        release.send(()).expect("release");
+        assert!(first.await.expect("join").expect("ran"));
+        let panicked = pool.run(|| panic!("boom")).await;
+        assert!(
+            matches!(&panicked, Err(ApiError::Internal(m)) if m.contains("boom")),
+            "{panicked:?}"
+        );
+        assert_eq!(
+            pool.run(|| 7).await.expect("ran"),
+            7,
+            "the pool survives a panic"
+        );
+    }
+}

@@ -159,20 +159,16 @@ impl<'a> PairJson<'a> {
 }
 
 /// Simulates under the scene's read lock. `cache` keeps the frusta traced
-/// from unchanged sources (a stream whose listener moves); it is emptied
-/// when the scene's revision differs from `cached_revision`. Blocking.
+/// from unchanged sources (a stream whose listener moves); the engine
+/// itself drops them when the geometry, materials or options change.
+/// Blocking.
 pub fn run(
     entry: &SceneEntry,
     request: &IrRequest,
     cache: &mut BeamCache,
-    cached_revision: &mut Option<u64>,
     limits: &Limits,
 ) -> Result<(u64, Vec<Response>), ApiError> {
     let live = entry.read();
-    if *cached_revision != Some(live.revision) {
-        *cache = BeamCache::with_max_beams(cache.max_beams());
-        *cached_revision = Some(live.revision);
-    }
     let deadline = Instant::now() + limits.max_compute();
     let responses = simulate_cached(
         &live.acoustic,

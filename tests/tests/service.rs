@@ -364,3 +364,37 @@ fn object_moves_before_any_listener_are_applied_and_stored() {
     let (_, _, detail) = get(&server.url("/v1/scenes/box"));
     assert_eq!(detail["objects"][1]["translation"], json!([0.0, 2.0, 0.0]));
 }
+
+#[test]
+fn streams_are_capped_and_a_deleted_scene_closes_its_streams() {
+    let data = DataDir::new("cap");
+    let mut config = data.config();
+    config.limits.max_streams = 1;
+    let server = Server::start_with(config);
+    assert_eq!(post(&server.url("/v1/scenes?id=box"), BOX_DOC).0, 201);
+    let (mut socket, _) =
+        tungstenite::connect(server.ws_url("/v1/scenes/box/stream")).expect("connect");
+    socket.send(ws_update(1, [6.0, 3.0, 1.5])).expect("send");
+    read_answer(&mut socket);
+    match tungstenite::connect(server.ws_url("/v1/scenes/box/stream")) {
+        Err(tungstenite::Error::Http(response)) => assert_eq!(response.status(), 503),
+        other => panic!("a second stream was accepted: {:?}", other.map(|_| ())),
+    }
+    assert_eq!(delete(&server.url("/v1/scenes/box")).0, 204);
+    let Message::Text(text) = socket.read().expect("read") else {
+        panic!("expected a problem");
+    };
+    let frame: Value = serde_json::from_str(&text).expect("JSON");
+    assert_eq!(
+        frame["problem"]["type"], "urn:frusta:problem:unknown-scene",
+        "{frame}"
+    );
+    let code = loop {
+        match socket.read() {
+            Ok(Message::Close(frame)) => break frame.map(|f| u16::from(f.code)),
+            Ok(_) => {}
+            Err(e) => panic!("no close frame: {e}"),
+        }
+    };
+    assert_eq!(code, Some(1000));
+}

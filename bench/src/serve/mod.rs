@@ -195,7 +195,7 @@ pub fn run(args: Args) -> Result<(), String> {
         Some(url) => (None, url.trim_end_matches('/').to_string()),
         None => {
             let local = server::Local::start(&args.scene)?;
-            let base = format!("http://{}", local.addr);
+            let base = local.url();
             (Some(local), base)
         }
     };

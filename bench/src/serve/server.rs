@@ -2,17 +2,13 @@
 //! data directory seeded with one scene (so startup builds nothing else,
 //! e.g. not the 200k hall).
 
-use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use std::thread::JoinHandle;
 
-use tokio::sync::oneshot;
-
+/// The server and its data directory. Fields drop in order: the server
+/// stops before the directory goes.
 pub struct Local {
-    pub addr: SocketAddr,
+    server: frusta_server::BackgroundServer,
     dir: PathBuf,
-    stop: oneshot::Sender<()>,
-    thread: JoinHandle<Result<(), String>>,
 }
 
 impl Local {
@@ -27,58 +23,25 @@ impl Local {
             .map_err(|e| format!("{file}: {e}"))?;
         let mut config = frusta_server::Config::with_data_dir(dir.join("data"));
         config.scenes_dir = scenes;
-
+        config.addr = ([127, 0, 0, 1], 0).into();
         eprintln!("[{scene}] starting the server (building the scene)...");
-        let (addr_tx, addr_rx) = std::sync::mpsc::channel();
-        let (stop, stopped) = oneshot::channel::<()>();
-        // Two workers as on the 2-core target; simulations run on rayon's
-        // pool either way.
-        let thread = std::thread::spawn(move || {
-            let runtime = tokio::runtime::Builder::new_multi_thread()
-                .worker_threads(2)
-                .enable_all()
-                .build()
-                .map_err(|e| e.to_string())?;
-            runtime.block_on(async move {
-                let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
-                    .await
-                    .map_err(|e| e.to_string())?;
-                let state = frusta_server::open(&config)?;
-                let addr = listener.local_addr().map_err(|e| e.to_string())?;
-                let _ = addr_tx.send(addr);
-                let shutdown = async {
-                    let _ = stopped.await;
-                };
-                frusta_server::serve(state, listener, shutdown)
-                    .await
-                    .map_err(|e| e.to_string())
-            })
-        });
-        match addr_rx.recv() {
-            Ok(addr) => Ok(Self {
-                addr,
-                dir,
-                stop,
-                thread,
-            }),
-            // The thread ended before it listened: its error says why.
-            Err(_) => {
+        match frusta_server::BackgroundServer::start(config) {
+            Ok(server) => Ok(Self { server, dir }),
+            Err(e) => {
                 let _ = std::fs::remove_dir_all(&dir);
-                Err(match thread.join() {
-                    Ok(Err(e)) => e,
-                    Ok(Ok(())) => "the server stopped".into(),
-                    Err(_) => "the server panicked".into(),
-                })
+                Err(e)
             }
         }
     }
 
+    /// `http://ADDR`.
+    pub fn url(&self) -> String {
+        self.server.url()
+    }
+
     /// Graceful shutdown, then the data directory goes.
     pub fn stop(self) {
-        let _ = self.stop.send(());
-        if let Ok(Err(e)) = self.thread.join() {
-            eprintln!("server: {e}");
-        }
+        self.server.stop();
         let _ = std::fs::remove_dir_all(&self.dir);
     }
 }

@@ -64,7 +64,7 @@ pub async fn create(
         .run(move || {
             // One-off: listeners are tested while tracing, no frusta kept.
             let mut no_cache = BeamCache::with_max_beams(0);
-            simulation::run(&entry, &request, &mut no_cache, &mut None, &limits)
+            simulation::run(&entry, &request, &mut no_cache, &limits)
         })
         .await??;
     let metrics = state.metrics();
@@ -194,6 +194,15 @@ mod tests {
             .headers_mut()
             .insert("accept", "audio/wav".parse().expect("header"));
         assert_eq!(server.send(request).await.0, StatusCode::NOT_ACCEPTABLE);
+    }
+
+    #[tokio::test]
+    async fn the_request_timeout_is_a_problem() {
+        let server = TestServer::with(|c| c.limits.request_timeout_s = 0);
+        let body = r#"{"sources": [{"position": [2, 3, 1.5]}], "listeners": [{"position": [7, 3, 1.2]}], "max_order": 6}"#;
+        let (status, _, problem) = server.send(post_json(URI, body)).await;
+        assert_eq!(status, StatusCode::GATEWAY_TIMEOUT, "{problem}");
+        assert_eq!(problem["type"], "urn:frusta:problem:timeout");
     }
 
     #[tokio::test]

@@ -439,6 +439,16 @@ mod tests {
     }
 
     #[tokio::test]
+    async fn a_full_server_refuses_uploads_and_keeps_what_it_has() {
+        let server = TestServer::with(|c| c.limits.max_total_triangles = 20);
+        let (status, _, problem) = server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        assert_eq!(status, StatusCode::INSUFFICIENT_STORAGE, "{problem}");
+        assert_eq!(problem["type"], "urn:frusta:problem:server-full");
+        let (_, _, list) = server.send(get("/v1/scenes")).await;
+        assert_eq!(list["scenes"].as_array().map(Vec::len), Some(1));
+    }
+
+    #[tokio::test]
     async fn an_obj_upload_is_one_object() {
         let server = TestServer::new();
         let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";

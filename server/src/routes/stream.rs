@@ -135,7 +135,7 @@ struct Computed {
     responses: Vec<acoustics::Response>,
 }
 
-type JobResult = (BeamCache, Option<u64>, Result<Computed, ApiError>);
+type JobResult = (BeamCache, Result<Computed, ApiError>);
 
 struct Stream {
     state: AppState,
@@ -146,7 +146,7 @@ struct Stream {
     /// The last request simulated, which updates modify.
     current: Option<IrRequest>,
     /// Absent while a job owns it.
-    cache: Option<(BeamCache, Option<u64>)>,
+    cache: Option<BeamCache>,
     /// The newest scene revision answered for.
     answered: Option<u64>,
 }
@@ -166,7 +166,7 @@ impl Stream {
             _permit: permit,
             pending: Pending::default(),
             current: None,
-            cache: Some((BeamCache::with_max_beams(max_beams), None)),
+            cache: Some(BeamCache::with_max_beams(max_beams)),
             answered: None,
         }
     }
@@ -194,8 +194,8 @@ impl Stream {
                     Some(Ok(Message::Close(_))) | None | Some(Err(_)) => break,
                     Some(Ok(_)) => {}
                 },
-                Some((cache, cached, result)) = done_rx.recv() => {
-                    self.cache = Some((cache, cached));
+                Some((cache, result)) = done_rx.recv() => {
+                    self.cache = Some(cache);
                     let sent = match result {
                         Ok(computed) => self.send_answers(&mut socket, computed).await,
                         Err(e) => send_error(&mut socket, &e).await,
@@ -284,7 +284,7 @@ impl Stream {
         }
         // Without sources and listeners yet, object moves still apply.
         let request = self.current.clone();
-        let Some((mut cache, mut cached)) = self.cache.take() else {
+        let Some(mut cache) = self.cache.take() else {
             return;
         };
         let state = self.state.clone();
@@ -303,9 +303,7 @@ impl Stream {
                         objects.push(report);
                     }
                     let (revision, responses) = match &request {
-                        Some(r) => {
-                            simulation::run(&entry, r, &mut cache, &mut cached, job_state.limits())?
-                        }
+                        Some(r) => simulation::run(&entry, r, &mut cache, job_state.limits())?,
                         None => (entry.read().revision, Vec::new()),
                     };
                     Ok(Computed {
@@ -316,11 +314,11 @@ impl Stream {
                         responses,
                     })
                 })();
-                (cache, cached, result)
+                (cache, result)
             };
             let result = match state.compute().run(job).await {
                 Ok(r) => r,
-                Err(e) => (BeamCache::with_max_beams(max_beams), None, Err(e)),
+                Err(e) => (BeamCache::with_max_beams(max_beams), Err(e)),
             };
             let _ = done.send(result).await;
         });
