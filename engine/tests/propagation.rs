@@ -138,8 +138,8 @@ mod cached {
     use std::time::{Duration, Instant};
 
     use frusta_engine::acoustics::{
-        simulate, simulate_cached, AcousticScene, BeamCache, CellAssignment, Response,
-        SimulationOptions,
+        simulate, simulate_cached, simulate_until, AcousticScene, BeamCache, CellAssignment,
+        Response, SimulationOptions,
     };
     use frusta_engine::geometry::RigidTransform;
     use frusta_engine::Error;
@@ -347,6 +347,14 @@ mod cached {
         assert_same(
             &cached,
             &simulate(&room, &[source], &[listener], &options).unwrap(),
+        );
+        // The same without a cache.
+        let hurried = Instant::now() + Duration::from_millis(1);
+        let e = simulate_until(&hall, &[source], &[listener], &sampled, hurried).unwrap_err();
+        assert!(matches!(e, Error::DeadlineExceeded { .. }), "{e}");
+        assert_same(
+            &simulate_until(&room, &[source], &[listener], &options, late).unwrap(),
+            &cached,
         );
     }
 }

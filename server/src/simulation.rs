@@ -7,7 +7,9 @@ use std::time::Instant;
 
 use frusta_engine::acoustics::signal::impulse_response::MAX_DURATION_S;
 use frusta_engine::acoustics::signal::Channels;
-use frusta_engine::acoustics::{simulate_cached, BeamCache, Response, SimulationOptions};
+use frusta_engine::acoustics::{
+    simulate_cached, simulate_until, BeamCache, Response, SimulationOptions,
+};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
@@ -158,26 +160,29 @@ impl<'a> PairJson<'a> {
     }
 }
 
-/// Simulates under the scene's read lock. `cache` keeps the frusta traced
-/// from unchanged sources (a stream whose listener moves); the engine
-/// itself drops them when the geometry, materials or options change.
-/// Blocking.
+/// Simulates under the scene's read lock, within the compute limit. With a
+/// `cache` (a stream), the frusta traced from unchanged sources are kept
+/// for moving listeners; the engine drops them when the geometry,
+/// materials or options change. Without one (a one-off request), listeners
+/// are tested while tracing and nothing is kept. Blocking.
 pub fn run(
     entry: &SceneEntry,
     request: &IrRequest,
-    cache: &mut BeamCache,
+    cache: Option<&mut BeamCache>,
     limits: &Limits,
 ) -> Result<(u64, Vec<Response>), ApiError> {
     let live = entry.read();
     let deadline = Instant::now() + limits.max_compute();
-    let responses = simulate_cached(
+    let (scene, sources, listeners, options) = (
         &live.acoustic,
         &request.sources,
         &request.listeners,
         &request.options,
-        cache,
-        Some(deadline),
-    )
+    );
+    let responses = match cache {
+        Some(cache) => simulate_cached(scene, sources, listeners, options, cache, Some(deadline)),
+        None => simulate_until(scene, sources, listeners, options, deadline),
+    }
     .map_err(ApiError::from_engine)?;
     Ok((live.revision, responses))
 }

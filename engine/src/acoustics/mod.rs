@@ -31,6 +31,8 @@ pub mod tracer;
 
 pub use beams::Beams;
 pub use cache::BeamCache;
-pub use propagation::{simulate, simulate_cached, Response, SimulationOptions, SoundPath};
+pub use propagation::{
+    simulate, simulate_cached, simulate_until, Response, SimulationOptions, SoundPath,
+};
 pub use scene::{AcousticScene, FoundPaths};
 pub use tracer::{CellAssignment, TraceOptions, TraceStats};

@@ -213,6 +213,18 @@ pub fn simulate(
     simulate_with(scene, sources, listeners, options, None, None)
 }
 
+/// [`simulate`] that stops with [`Error::DeadlineExceeded`] past
+/// `deadline`, returning nothing partial.
+pub fn simulate_until(
+    scene: &AcousticScene,
+    sources: &[Vec3],
+    listeners: &[Vec3],
+    options: &SimulationOptions,
+    deadline: Instant,
+) -> Result<Vec<Response>> {
+    simulate_with(scene, sources, listeners, options, None, Some(deadline))
+}
+
 /// [`simulate`], reusing the beams `cache` holds for a source when the
 /// source (to the bit), the trace options, the materials and the scene's
 /// [`revision`](AcousticScene::revision) are unchanged: moving listeners

@@ -7,7 +7,6 @@ use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use frusta_engine::acoustics::signal::write_wav_to;
-use frusta_engine::acoustics::BeamCache;
 use serde::Serialize;
 use serde_json::Value;
 use utoipa::ToSchema;
@@ -61,11 +60,7 @@ pub async fn create(
     let limits = state.limits().clone();
     let (revision, responses) = state
         .compute()
-        .run(move || {
-            // One-off: listeners are tested while tracing, no frusta kept.
-            let mut no_cache = BeamCache::with_max_beams(0);
-            simulation::run(&entry, &request, &mut no_cache, &limits)
-        })
+        .run(move || simulation::run(&entry, &request, None, &limits))
         .await??;
     let metrics = state.metrics();
     metrics.impulse_responses.inc_by(responses.len() as u64);

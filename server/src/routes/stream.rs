@@ -303,7 +303,9 @@ impl Stream {
                         objects.push(report);
                     }
                     let (revision, responses) = match &request {
-                        Some(r) => simulation::run(&entry, r, &mut cache, job_state.limits())?,
+                        Some(r) => {
+                            simulation::run(&entry, r, Some(&mut cache), job_state.limits())?
+                        }
                         None => (entry.read().revision, Vec::new()),
                     };
                     Ok(Computed {
