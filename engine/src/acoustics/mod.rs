@@ -17,6 +17,7 @@
 
 pub mod beams;
 mod cache;
+mod classify;
 mod cull;
 mod deadline;
 pub mod frustum;
@@ -24,6 +25,7 @@ mod merge;
 pub mod path;
 pub mod propagation;
 pub mod reference;
+mod sample_rays;
 pub mod scene;
 pub mod signal;
 pub mod surfaces;

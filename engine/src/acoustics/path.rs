@@ -192,7 +192,7 @@ pub fn validate(
 /// The closest hit on `ray` within `[t_min, t_max]` that is not on group
 /// `skip`; after [`MAX_SKIPPED_HITS`] skipped hits, the last of them (so
 /// the caller rejects the leg either way).
-fn first_hit(
+pub(super) fn first_hit(
     bvh: &SceneBvh,
     surfaces: &Surfaces,
     ray: &Ray,

@@ -177,6 +177,7 @@ pub struct SimulationStats {
     /// them.
     pub frusta: u64,
     pub triangle_tests: u64,
+    pub sample_rays: u64,
     pub proposals: u64,
     pub paths: usize,
     /// Whether the source's beams came from the cache instead of a trace.
@@ -318,6 +319,7 @@ fn simulate_with(
                 stats: SimulationStats {
                     frusta: found.stats.frusta,
                     triangle_tests: found.stats.triangle_tests,
+                    sample_rays: found.stats.sample_rays,
                     proposals: found.stats.proposals,
                     paths: sound_paths.len(),
                     beams_reused,

@@ -4,27 +4,26 @@
 //! that meet one plane group are merged into secondary frusta, mirrored in
 //! that plane (reflection) or continued through it (transmission).
 //!
-//! Classification is done in the frustum's window space, where a triangle
-//! projects to a polygon and a cell to a square: the sign of a triangle
-//! edge's 2D line function at a cell corner is the sign of the Plücker
-//! product of that corner ray with the edge, so "all corners inside" is the
-//! fully-inside case (no sample rays needed), "all corners outside one edge"
-//! is a miss, and only cells inside the triangle's window bounds are looked
-//! at. A cell is handed to every triangle that touches it, except those
-//! wholly behind a triangle that covers the cell: conservative, so that
-//! every image source is proposed, and exact validation
-//! ([`validate`](super::path::validate)) rejects what is not a path.
+//! Cells are handed to triangles in one of two ways. Conservative cells
+//! ([`classify`](super::classify)) go to every triangle that touches them
+//! in the frustum's window space, except those wholly behind a triangle
+//! that covers the cell, so that every image source is proposed; sampled
+//! cells ([`sample_rays`]) go to what their corner and centre rays meet
+//! first. Either way exact validation ([`validate`](super::path::validate))
+//! rejects what is not a path.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 use super::beams::Beams;
+use super::classify::{classify, CoverDepths};
 use super::cull::{for_each_leaf, BoxCull};
 use super::deadline::{Deadline, CLOCK_PERIOD};
 use super::frustum::Frustum;
 use super::merge::merge_cells;
 use super::path::Event;
+use super::sample_rays;
 use super::surfaces::{Surfaces, NO_GROUP};
 use crate::query::SceneBvh;
 use crate::scene::{Bands, Material, BAND_COUNT};
@@ -82,8 +81,10 @@ impl Default for TraceOptions {
 pub struct TraceStats {
     /// Frusta traced, primary and secondary.
     pub frusta: u64,
-    /// Triangle-against-frustum classifications.
+    /// Triangle-against-frustum classifications (conservative cells).
     pub triangle_tests: u64,
+    /// Rays cast through the scene (sampled cells).
+    pub sample_rays: u64,
     /// Event sequences proposed for validation (before de-duplication).
     pub proposals: u64,
 }
@@ -92,6 +93,7 @@ impl TraceStats {
     pub(crate) fn add(mut self, o: Self) -> Self {
         self.frusta += o.frusta;
         self.triangle_tests += o.triangle_tests;
+        self.sample_rays += o.sample_rays;
         self.proposals += o.proposals;
         self
     }
@@ -109,16 +111,16 @@ struct Pending {
 /// Reusable buffers of one worker.
 #[derive(Default)]
 struct Scratch {
-    cover: Vec<f64>,
+    /// Per cell, the nearest depth at which a triangle covers it wholly.
+    cover: CoverDepths,
     /// `(cell, group, nearest depth)` of every cell-triangle contact.
     contacts: Vec<(u32, u32, f64)>,
     /// `(group, cell)` pairs that survive occlusion.
     touched: Vec<(u32, u32)>,
     rects: Vec<[u32; 4]>,
     stack: Vec<(u32, f32)>,
-    /// Nearest `(depth, group)` per sample ray: `(N+1)^2` cell corners,
-    /// then `N^2` cell centres ([`CellAssignment::Sampled`]).
-    samples: Vec<(f64, u32)>,
+    /// The group each sample ray meets first ([`CellAssignment::Sampled`]).
+    samples: Vec<u32>,
     history: Vec<(u32, Event)>,
     pending: Vec<Pending>,
 }
@@ -305,8 +307,8 @@ pub(crate) fn events_of(history: &[(u32, Event)], mut at: u32) -> Vec<Event> {
     out
 }
 
-/// Classifies the triangles `p` meets per cell and pushes its secondary
-/// frusta.
+/// Hands `p`'s cells to the plane groups they meet and pushes its
+/// secondary frusta.
 fn expand(
     input: &TraceInput,
     options: &TraceOptions,
@@ -315,25 +317,54 @@ fn expand(
     stats: &mut TraceStats,
 ) {
     let n = options.sampling.clamp(1, 64) as usize;
+    let last_group = (p.history != u32::MAX).then(|| scratch.history[p.history as usize].1.group());
+    scratch.touched.clear();
+    match options.cells {
+        CellAssignment::Sampled => {
+            let Scratch {
+                samples, touched, ..
+            } = scratch;
+            sample_rays::cast(
+                input.bvh,
+                input.surfaces,
+                &p.frustum,
+                last_group,
+                n,
+                samples,
+            );
+            stats.sample_rays += samples.len() as u64;
+            sampled_cells(samples, n, touched);
+        }
+        CellAssignment::Conservative => conservative_cells(input, p, last_group, n, scratch, stats),
+    }
+    scratch.touched.sort_unstable();
+    scratch.touched.dedup();
+    let touched = std::mem::take(&mut scratch.touched);
+    for cells in touched.chunk_by(|a, b| a.0 == b.0) {
+        spawn(input, options, p, cells, n, scratch);
+    }
+    scratch.touched = touched;
+}
+
+/// Pushes to `scratch.touched` a `(group, cell)` pair for every triangle
+/// touching a cell that no covering triangle hides.
+fn conservative_cells(
+    input: &TraceInput,
+    p: &Pending,
+    last_group: Option<u32>,
+    n: usize,
+    scratch: &mut Scratch,
+    stats: &mut TraceStats,
+) {
     let f = &p.frustum;
     let scale = input.surfaces.scale();
-    let last_group = (p.history != u32::MAX).then(|| scratch.history[p.history as usize].1.group());
-    scratch.cover.clear();
-    scratch.cover.resize(n * n, f64::INFINITY);
+    scratch.cover.reset(n * n);
     scratch.contacts.clear();
-    let sampled = options.cells == CellAssignment::Sampled;
-    scratch.samples.clear();
-    if sampled {
-        scratch
-            .samples
-            .resize((n + 1) * (n + 1) + n * n, (f64::INFINITY, NO_GROUP));
-    }
     let cull = BoxCull::new(f, (scale * 1e-6) as f32);
     let Scratch {
         cover,
         contacts,
         stack,
-        samples,
         ..
     } = scratch;
     for_each_leaf(input.bvh, input.surfaces, &cull, stack, |first, count| {
@@ -343,46 +374,14 @@ fn expand(
                 continue;
             }
             stats.triangle_tests += 1;
-            let target = if sampled {
-                Target::Samples(samples)
-            } else {
-                Target::Cells(cover, contacts)
-            };
-            classify(f, input.surfaces, corners, group, n, scale, target);
+            classify(f, input.surfaces, corners, group, n, scale, cover, contacts);
         }
-        // Nothing beyond the farthest covered cell (or sample hit) can be
-        // handed a cell.
-        if sampled {
-            samples.iter().map(|s| s.0).fold(0.0, f64::max)
-        } else {
-            cover.iter().copied().fold(0.0, f64::max)
-        }
+        // Nothing beyond the farthest covered cell can be handed a cell.
+        cover.farthest()
     });
-    scratch.touched.clear();
-    if sampled {
-        let samples = &scratch.samples;
-        for i in 0..n {
-            for j in 0..n {
-                let cell = (i * n + j) as u32;
-                let corner = |a: usize, b: usize| samples[a * (n + 1) + b].1;
-                let centre = samples[(n + 1) * (n + 1) + i * n + j].1;
-                for g in [
-                    corner(i, j),
-                    corner(i + 1, j),
-                    corner(i, j + 1),
-                    corner(i + 1, j + 1),
-                    centre,
-                ] {
-                    if g != NO_GROUP && Some(g) != last_group {
-                        scratch.touched.push((g, cell));
-                    }
-                }
-            }
-        }
-    }
     // A contact counts unless a covering triangle lies wholly in front of
     // it over the whole cell.
-    let cover = &scratch.cover;
+    let cover = &scratch.cover.depth;
     scratch.touched.extend(
         scratch
             .contacts
@@ -390,13 +389,30 @@ fn expand(
             .filter(|&&(cell, _, depth)| depth <= cover[cell as usize] * (1.0 + 1e-9))
             .map(|&(cell, group, _)| (group, cell)),
     );
-    scratch.touched.sort_unstable();
-    scratch.touched.dedup();
-    let touched = std::mem::take(&mut scratch.touched);
-    for cells in touched.chunk_by(|a, b| a.0 == b.0) {
-        spawn(input, options, p, cells, n, scratch);
+}
+
+/// Pushes to `touched` a `(group, cell)` pair for every group that one of
+/// the cell's five sample rays meets first (`hit`, in the order of
+/// [`sample_rays::cast`]).
+fn sampled_cells(hit: &[u32], n: usize, touched: &mut Vec<(u32, u32)>) {
+    for i in 0..n {
+        for j in 0..n {
+            let cell = (i * n + j) as u32;
+            let corner = |a: usize, b: usize| hit[a * (n + 1) + b];
+            let centre = hit[(n + 1) * (n + 1) + i * n + j];
+            for g in [
+                corner(i, j),
+                corner(i + 1, j),
+                corner(i, j + 1),
+                corner(i + 1, j + 1),
+                centre,
+            ] {
+                if g != NO_GROUP {
+                    touched.push((g, cell));
+                }
+            }
+        }
     }
-    scratch.touched = touched;
 }
 
 /// Pushes the secondary frusta over `cells`, `(group, cell)` pairs of one
@@ -460,190 +476,4 @@ fn spawn(
         }
     }
     scratch.rects = rects;
-}
-
-/// What [`classify`] records a triangle into.
-enum Target<'a> {
-    /// Cover depths per cell and `(cell, group, depth)` contacts
-    /// ([`CellAssignment::Conservative`]).
-    Cells(&'a mut [f64], &'a mut Vec<(u32, u32, f64)>),
-    /// Nearest hit per sample ray ([`CellAssignment::Sampled`]).
-    Samples(&'a mut [(f64, u32)]),
-}
-
-/// Classifies one triangle against the cells of frustum `f`: records a
-/// contact for every cell it touches and lowers the cover depth of every
-/// cell it fully covers, or, sampling, records it where it is the nearest
-/// hit of a sample ray.
-fn classify(
-    f: &Frustum,
-    surfaces: &Surfaces,
-    corners: &[glam::Vec3A; 3],
-    group: u32,
-    n: usize,
-    scale: f64,
-    target: Target,
-) {
-    let plane = surfaces.group(group).plane;
-    let apex_distance = plane.distance(f.apex);
-    // A plane through the apex is seen edge-on: it neither reflects nor
-    // hides anything.
-    if apex_distance.abs() <= 1e-12 * scale {
-        return;
-    }
-    let p = corners.map(|c| c.as_dvec3());
-    let mut wholly_valid = true;
-    if let Some(near) = &f.near {
-        let d = p.map(|q| near.distance(q));
-        let tol = 1e-9 * scale;
-        if d.iter().all(|&x| x < tol) {
-            return;
-        }
-        wholly_valid = d.iter().all(|&x| x > tol);
-    }
-    let w = p.map(|q| f.window_coords(q));
-    let s_min = 1e-12 * scale;
-    let mut poly = [DVec2::ZERO; 4];
-    let (count, clipped) = project(&w, s_min, &mut poly);
-    if count < 3 {
-        return;
-    }
-    let poly = &poly[..count];
-    let (lo, hi) = poly.iter().fold(
-        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-        |(lo, hi), q| (lo.min(*q), hi.max(*q)),
-    );
-    const MARGIN: f64 = 1e-9;
-    if hi.x < -MARGIN || hi.y < -MARGIN || lo.x > 1.0 + MARGIN || lo.y > 1.0 + MARGIN {
-        return;
-    }
-    let nf = n as f64;
-    let cell_range = |a: f64, b: f64| {
-        let first = ((a - MARGIN) * nf).floor().clamp(0.0, nf - 1.0) as usize;
-        let last = ((b + MARGIN) * nf).floor().clamp(0.0, nf - 1.0) as usize;
-        (first, last)
-    };
-    let (i0, i1) = cell_range(lo.x, hi.x);
-    let (j0, j1) = cell_range(lo.y, hi.y);
-    // Edge lines, oriented so the polygon is on their positive side and
-    // scaled to give distances in window units.
-    let area2: f64 = (0..count)
-        .map(|k| poly[k].perp_dot(poly[(k + 1) % count]))
-        .sum();
-    if area2 == 0.0 || !area2.is_finite() {
-        return;
-    }
-    let orient = area2.signum();
-    let mut edges = [(DVec2::ZERO, 0.0); 4];
-    for k in 0..count {
-        let (a, b) = (poly[k], poly[(k + 1) % count]);
-        let d = b - a;
-        let len = d.length();
-        let normal = DVec2::new(-d.y, d.x) * (orient / len);
-        edges[k] = (normal, normal.dot(a));
-    }
-    let edges = &edges[..count];
-    let step = 1.0 / n as f64;
-    let plane_offset = -apex_distance;
-    let (cover, contacts) = match target {
-        Target::Cells(cover, contacts) => (cover, contacts),
-        Target::Samples(samples) => {
-            let hit = |q: DVec2| -> Option<f64> {
-                if edges
-                    .iter()
-                    .any(|&(normal, offset)| normal.dot(q) - offset < -MARGIN)
-                {
-                    return None;
-                }
-                let d = f.direction(q.x, q.y);
-                let depth = plane_offset / plane.normal.dot(d);
-                let valid = f
-                    .near
-                    .as_ref()
-                    .is_none_or(|near| near.distance(f.apex + d * depth) > 1e-9 * scale);
-                (depth > 0.0 && valid).then_some(depth)
-            };
-            let mut record = |k: usize, q: DVec2| {
-                if let Some(depth) = hit(q) {
-                    if depth < samples[k].0 {
-                        samples[k] = (depth, group);
-                    }
-                }
-            };
-            for i in i0..=i1 + 1 {
-                for j in j0..=j1 + 1 {
-                    record(i * (n + 1) + j, DVec2::new(i as f64, j as f64) * step);
-                }
-            }
-            for i in i0..=i1 {
-                for j in j0..=j1 {
-                    let q = DVec2::new(i as f64 + 0.5, j as f64 + 0.5) * step;
-                    record((n + 1) * (n + 1) + i * n + j, q);
-                }
-            }
-            return;
-        }
-    };
-    let depth = w.iter().map(|q| q.z).fold(f64::INFINITY, f64::min).max(0.0);
-    let can_cover = wholly_valid && !clipped;
-    for i in i0..=i1 {
-        for j in j0..=j1 {
-            let c = [
-                DVec2::new(i as f64 * step, j as f64 * step),
-                DVec2::new((i + 1) as f64 * step, j as f64 * step),
-                DVec2::new((i + 1) as f64 * step, (j + 1) as f64 * step),
-                DVec2::new(i as f64 * step, (j + 1) as f64 * step),
-            ];
-            let mut inside_all = true;
-            let mut separated = false;
-            for &(normal, offset) in edges {
-                let e = c.map(|q| normal.dot(q) - offset);
-                if e.iter().all(|&x| x < -MARGIN) {
-                    separated = true;
-                    break;
-                }
-                inside_all &= e.iter().all(|&x| x > MARGIN);
-            }
-            if separated {
-                continue;
-            }
-            let cell = (i * n + j) as u32;
-            contacts.push((cell, group, depth));
-            if can_cover && inside_all {
-                // Depth of the plane along each corner direction; the
-                // farthest bounds the plane over the whole cell.
-                let far = c
-                    .iter()
-                    .map(|q| plane_offset / plane.normal.dot(f.direction(q.x, q.y)))
-                    .fold(0.0f64, f64::max);
-                let slot = &mut cover[cell as usize];
-                *slot = slot.min(far);
-            }
-        }
-    }
-}
-
-/// Projects a triangle given in window coordinates `(x, y, s)` onto the
-/// window, first clipping away the part with `s < s_min` (behind or at the
-/// apex). Returns the vertex count and whether anything was clipped.
-fn project(w: &[DVec3; 3], s_min: f64, out: &mut [DVec2; 4]) -> (usize, bool) {
-    let mut count = 0;
-    let mut clipped = false;
-    for k in 0..3 {
-        let (a, b) = (w[k], w[(k + 1) % 3]);
-        let a_in = a.z >= s_min;
-        if a_in {
-            out[count] = DVec2::new(a.x / a.z, a.y / a.z);
-            count += 1;
-        } else {
-            clipped = true;
-        }
-        if a_in != (b.z >= s_min) && count < 4 {
-            let t = (s_min - a.z) / (b.z - a.z);
-            let q = a + (b - a) * t;
-            out[count] = DVec2::new(q.x / q.z, q.y / q.z);
-            count += 1;
-        }
-    }
-    (count, clipped)
 }

@@ -1,0 +1,253 @@
+//! Per-cell classification of one triangle against a frustum, in the
+//! frustum's window space, where the triangle projects to a polygon and a
+//! cell to a square: the sign of a triangle edge's 2D line function at a
+//! cell corner is the sign of the Plücker product of that corner ray with
+//! the edge, so "all corners inside" is the fully-inside case (no sample
+//! rays needed), "all corners outside one edge" is a miss, and only cells
+//! inside the triangle's window bounds are looked at.
+
+use glam::{DVec2, DVec3};
+
+use super::frustum::Frustum;
+use super::surfaces::Surfaces;
+
+/// Per cell, the nearest depth at which a triangle covers it wholly, with
+/// the farthest of those depths kept at hand: it is where the cull may
+/// stop, and it is asked for after every leaf.
+#[derive(Default)]
+pub(super) struct CoverDepths {
+    pub depth: Vec<f64>,
+    /// Slots still at infinity: while any is, there is no stop depth.
+    unset: usize,
+    farthest: f64,
+    /// A slot at the farthest depth came nearer: `farthest` must be redone.
+    stale: bool,
+}
+
+impl CoverDepths {
+    pub fn reset(&mut self, len: usize) {
+        self.depth.clear();
+        self.depth.resize(len, f64::INFINITY);
+        self.unset = len;
+        self.farthest = f64::INFINITY;
+        self.stale = false;
+    }
+
+    /// Records `depth` at slot `k` if it is nearer than what is there.
+    #[inline]
+    fn lower(&mut self, k: usize, depth: f64) {
+        let old = self.depth[k];
+        if !(depth < old) {
+            return;
+        }
+        self.depth[k] = depth;
+        if old == f64::INFINITY {
+            self.unset -= 1;
+            self.stale |= self.unset == 0;
+        } else {
+            self.stale |= old >= self.farthest;
+        }
+    }
+
+    /// The farthest nearest depth over all slots; infinity while a slot
+    /// has none.
+    pub fn farthest(&mut self) -> f64 {
+        if self.unset > 0 {
+            return f64::INFINITY;
+        }
+        if self.stale {
+            self.farthest = self.depth.iter().copied().fold(0.0, f64::max);
+            self.stale = false;
+        }
+        self.farthest
+    }
+}
+
+/// Window distance within which a point counts as on a line.
+const MARGIN: f64 = 1e-9;
+
+/// Classifies one triangle against the cells of frustum `f`
+/// ([`CellAssignment::Conservative`](super::tracer::CellAssignment)):
+/// records a `(cell, group, depth)` contact for every cell it touches and
+/// lowers the cover depth of every cell it fully covers.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn classify(
+    f: &Frustum,
+    surfaces: &Surfaces,
+    corners: &[glam::Vec3A; 3],
+    group: u32,
+    n: usize,
+    scale: f64,
+    cover: &mut CoverDepths,
+    contacts: &mut Vec<(u32, u32, f64)>,
+) {
+    let plane = surfaces.group(group).plane;
+    let apex_distance = plane.distance(f.apex);
+    // A plane through the apex is seen edge-on: it neither reflects nor
+    // hides anything.
+    if apex_distance.abs() <= 1e-12 * scale {
+        return;
+    }
+    let p = corners.map(|c| c.as_dvec3());
+    let mut wholly_valid = true;
+    if let Some(near) = &f.near {
+        let d = p.map(|q| near.distance(q));
+        let tol = 1e-9 * scale;
+        if d.iter().all(|&x| x < tol) {
+            return;
+        }
+        wholly_valid = d.iter().all(|&x| x > tol);
+    }
+    let w = p.map(|q| f.window_coords(q));
+    let s_min = 1e-12 * scale;
+    let mut poly = [DVec2::ZERO; 4];
+    let (count, clipped) = project(&w, s_min, &mut poly);
+    if count < 3 {
+        return;
+    }
+    let poly = &poly[..count];
+    let (lo, hi) = poly.iter().fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(lo, hi), q| (lo.min(*q), hi.max(*q)),
+    );
+    if hi.x < -MARGIN || hi.y < -MARGIN || lo.x > 1.0 + MARGIN || lo.y > 1.0 + MARGIN {
+        return;
+    }
+    let nf = n as f64;
+    // Truncation is the floor here (the value is clamped non-negative
+    // first), without a call to libm's floor on baseline x86-64.
+    let cell_range = |a: f64, b: f64| {
+        let first = ((a - MARGIN) * nf).clamp(0.0, nf - 1.0) as usize;
+        let last = ((b + MARGIN) * nf).clamp(0.0, nf - 1.0) as usize;
+        (first, last)
+    };
+    let (i0, i1) = cell_range(lo.x, hi.x);
+    let (j0, j1) = cell_range(lo.y, hi.y);
+    // Edge lines, oriented so the polygon is on their positive side and
+    // scaled to give distances in window units.
+    let area2: f64 = (0..count)
+        .map(|k| poly[k].perp_dot(poly[(k + 1) % count]))
+        .sum();
+    if area2 == 0.0 || !area2.is_finite() {
+        return;
+    }
+    let orient = area2.signum();
+    let mut edges = [(DVec2::ZERO, 0.0); 4];
+    for k in 0..count {
+        let (a, b) = (poly[k], poly[(k + 1) % count]);
+        let d = b - a;
+        let len = d.length();
+        let normal = DVec2::new(-d.y, d.x) * (orient / len);
+        edges[k] = (normal, normal.dot(a));
+    }
+    let edges = &edges[..count];
+    let step = 1.0 / n as f64;
+    let plane_offset = -apex_distance;
+    let depth = w.iter().map(|q| q.z).fold(f64::INFINITY, f64::min).max(0.0);
+    let can_cover = wholly_valid && !clipped;
+    for i in i0..=i1 {
+        for j in j0..=j1 {
+            let c = [
+                DVec2::new(i as f64 * step, j as f64 * step),
+                DVec2::new((i + 1) as f64 * step, j as f64 * step),
+                DVec2::new((i + 1) as f64 * step, (j + 1) as f64 * step),
+                DVec2::new(i as f64 * step, (j + 1) as f64 * step),
+            ];
+            let mut inside_all = true;
+            let mut separated = false;
+            for &(normal, offset) in edges {
+                let e = c.map(|q| normal.dot(q) - offset);
+                if e.iter().all(|&x| x < -MARGIN) {
+                    separated = true;
+                    break;
+                }
+                inside_all &= e.iter().all(|&x| x > MARGIN);
+            }
+            if separated {
+                continue;
+            }
+            let cell = (i * n + j) as u32;
+            contacts.push((cell, group, depth));
+            if can_cover && inside_all {
+                // Depth of the plane along each corner direction; the
+                // farthest bounds the plane over the whole cell.
+                let far = c
+                    .iter()
+                    .map(|q| plane_offset / plane.normal.dot(f.direction(q.x, q.y)))
+                    .fold(0.0f64, f64::max);
+                cover.lower(cell as usize, far);
+            }
+        }
+    }
+}
+
+/// Projects a triangle given in window coordinates `(x, y, s)` onto the
+/// window, first clipping away the part with `s < s_min` (behind or at the
+/// apex). Returns the vertex count and whether anything was clipped.
+fn project(w: &[DVec3; 3], s_min: f64, out: &mut [DVec2; 4]) -> (usize, bool) {
+    let mut count = 0;
+    let mut clipped = false;
+    for k in 0..3 {
+        let (a, b) = (w[k], w[(k + 1) % 3]);
+        let a_in = a.z >= s_min;
+        if a_in {
+            out[count] = DVec2::new(a.x / a.z, a.y / a.z);
+            count += 1;
+        } else {
+            clipped = true;
+        }
+        if a_in != (b.z >= s_min) && count < 4 {
+            let t = (s_min - a.z) / (b.z - a.z);
+            let q = a + (b - a) * t;
+            out[count] = DVec2::new(q.x / q.z, q.y / q.z);
+            count += 1;
+        }
+    }
+    (count, clipped)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn farthest_is_infinite_until_every_cell_is_covered_then_follows_the_cells() {
+        let mut d = CoverDepths::default();
+        d.reset(3);
+        d.lower(0, 5.0);
+        d.lower(1, 2.0);
+        assert_eq!(d.farthest(), f64::INFINITY);
+        d.lower(2, 3.0);
+        assert_eq!(d.farthest(), 5.0);
+        // Not nearer: ignored.
+        d.lower(0, 6.0);
+        assert_eq!((d.farthest(), d.depth[0]), (5.0, 5.0));
+        // A cell below the farthest changes nothing of it.
+        d.lower(1, 1.0);
+        assert_eq!(d.farthest(), 5.0);
+        // The farthest cell comes nearer: the next farthest takes over.
+        d.lower(0, 0.5);
+        assert_eq!(d.farthest(), 3.0);
+        d.lower(2, f64::NAN);
+        assert_eq!(d.farthest(), 3.0);
+        d.reset(2);
+        assert_eq!(d.farthest(), f64::INFINITY);
+    }
+
+    #[test]
+    fn clipping_at_the_apex_keeps_the_part_in_front() {
+        let w = [
+            DVec3::new(0.5, 0.5, 1.0),
+            DVec3::new(1.0, 0.5, 1.0),
+            DVec3::new(0.5, 0.5, -1.0),
+        ];
+        let mut out = [DVec2::ZERO; 4];
+        let (count, clipped) = project(&w, 1e-3, &mut out);
+        assert!(clipped);
+        assert_eq!(count, 4);
+        assert!(out[..count].iter().all(|q| q.is_finite()));
+        let (count, clipped) = project(&[w[0], w[1], DVec3::new(0.0, 1.0, 2.0)], 1e-3, &mut out);
+        assert_eq!((count, clipped), (3, false));
+        assert_eq!(out[2], DVec2::new(0.0, 0.5));
+    }
+}
