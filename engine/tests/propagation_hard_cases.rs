@@ -7,7 +7,7 @@ use frusta_engine::acoustics::path::{Event, ValidPath};
 use frusta_engine::acoustics::propagation::{arrival, simulate, SimulationOptions};
 use frusta_engine::acoustics::reference::image_sources;
 use frusta_engine::acoustics::signal::AirConditions;
-use frusta_engine::acoustics::{AcousticScene, TraceOptions};
+use frusta_engine::acoustics::{AcousticScene, CellAssignment, TraceOptions};
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::generate::BoxRoom;
 use frusta_engine::scene::{Material, Scene, SceneObject};
@@ -31,9 +31,15 @@ fn box_mesh(min: Vec3, max: Vec3, subdivisions: u32) -> frusta_engine::scene::Ra
 }
 
 fn shoebox_scaled(scale: f64, absorption: f32) -> Scene {
+    shoebox_tessellated(scale, 1, absorption)
+}
+
+/// The shoebox scaled by `scale`, each wall split `subdivisions` times
+/// each way.
+fn shoebox_tessellated(scale: f64, subdivisions: u32, absorption: f32) -> Scene {
     Scene::single_object(
         "room",
-        box_mesh(Vec3::ZERO, (SIZE * scale).as_vec3(), 1),
+        box_mesh(Vec3::ZERO, (SIZE * scale).as_vec3(), subdivisions),
         Material::uniform("walls", absorption).unwrap(),
     )
     .unwrap()
@@ -103,17 +109,27 @@ fn check_exact(
     sampling: u32,
     what: &str,
 ) -> Vec<ValidPath> {
-    let traced = scene
-        .find_paths(s, &[l], &options(order, sampling))
-        .paths
-        .remove(0);
+    check_against_reference(scene, s, l, &options(order, sampling), 0, what)
+}
+
+/// [`check_exact`] with any trace options, allowing up to `may_miss`
+/// reference paths to be missing (sampled cells).
+fn check_against_reference(
+    scene: &AcousticScene,
+    s: DVec3,
+    l: DVec3,
+    options: &TraceOptions,
+    may_miss: usize,
+    what: &str,
+) -> Vec<ValidPath> {
+    let traced = scene.find_paths(s, &[l], options).paths.remove(0);
     let exact = image_sources(
         scene.bvh(),
         scene.surfaces(),
         &scene.materials,
         s,
         l,
-        order as usize,
+        options.max_order as usize,
     );
     for p in traced.iter().chain(&exact) {
         assert_finite_path(p);
@@ -138,7 +154,7 @@ fn check_exact(
         .map(|e| (events(e), e.image_source, e.length))
         .collect();
     assert!(
-        missing.is_empty(),
+        missing.len() <= may_miss,
         "{what}: {} of {} reference paths missing: {missing:?}",
         missing.len(),
         exact.len()
@@ -146,7 +162,9 @@ fn check_exact(
     let air = AirConditions::default();
     let speed = air.speed_of_sound();
     for e in &exact {
-        let t = traced.iter().find(|t| events(t) == events(e)).unwrap();
+        let Some(t) = traced.iter().find(|t| events(t) == events(e)) else {
+            continue;
+        };
         assert!(
             rel(t.length, e.length) <= 1e-6,
             "{what}: length {t:?} {e:?}"
@@ -343,6 +361,55 @@ fn source_in_a_corner() {
     let s = SIZE - DVec3::splat(1e-3);
     let paths = check_exact(&scene, s, L, 5, 8, "far corner");
     assert_eq!(paths.len(), box_image_count(5));
+}
+
+/// Sampled cells in hard positions: never a false or duplicate path, exact
+/// lengths and gains for what is found, and, where walls are large next to
+/// cells, every image source at any scale and 1 mm from a wall. What sample
+/// rays cannot see is a surface seen under less than a cell: paths hugging
+/// the edges of a corner 1 mm away, and floor reflections 0.1 mm above the
+/// floor, where the floor fills a sliver of the cell towards the listener
+/// (sample rays there meet the far wall). Walls of two triangles are
+/// classified against the samples; walls of 512 put more triangles in each
+/// frustum than classification is worth, so the sample rays are cast.
+#[test]
+fn sampled_cells_in_hard_positions() {
+    let sampled = TraceOptions {
+        cells: CellAssignment::Sampled,
+        ..options(4, 8)
+    };
+    for subdivisions in [1, 16] {
+        let box_scene = AcousticScene::new(&shoebox_tessellated(1.0, subdivisions, 0.2));
+        let stats = box_scene.find_paths(S, &[L], &sampled).stats;
+        assert_eq!(stats.sample_rays > 0, subdivisions > 1, "{stats:?}");
+        for (s, l, may_miss, what) in [
+            (DVec3::new(1e-3, 3.5, 1.2), L, 0, "source 1 mm from x=0"),
+            (DVec3::splat(1e-3), L, 2, "source 1 mm from a corner"),
+            (
+                S,
+                DVec3::new(7.3, 6.0 - 1e-3, 1.7),
+                0,
+                "listener 1 mm from y=6",
+            ),
+            (
+                DVec3::new(0.5, 3.0, 1e-4),
+                DVec3::new(9.5, 3.2, 1e-4),
+                26,
+                "grazing the floor",
+            ),
+            (S, DVec3::new(7.3, S.y, S.z), 0, "on primary split planes"),
+        ] {
+            let what = format!("{what}, walls split {subdivisions} times");
+            let paths = check_against_reference(&box_scene, s, l, &sampled, may_miss, &what);
+            assert!(paths.len() + may_miss >= box_image_count(4), "{what}");
+        }
+        for scale in [1e-3, 1e3] {
+            let scene = AcousticScene::new(&shoebox_tessellated(scale, subdivisions, 0.2));
+            let what = format!("scale {scale}, walls split {subdivisions} times");
+            let paths = check_against_reference(&scene, S * scale, L * scale, &sampled, 0, &what);
+            assert_eq!(paths.len(), box_image_count(4), "{what}");
+        }
+    }
 }
 
 #[test]

@@ -9,14 +9,15 @@
 use glam::{DVec2, DVec3};
 
 use super::frustum::Frustum;
-use super::surfaces::Surfaces;
+use super::surfaces::{Surfaces, NO_GROUP};
 
-/// Per cell, the nearest depth at which a triangle covers it wholly, with
-/// the farthest of those depths kept at hand: it is where the cull may
-/// stop, and it is asked for after every leaf.
+/// Per slot (a cell, or a sample ray), the nearest depth found so far and
+/// the group found there, with the farthest of those depths kept at hand:
+/// it is where the cull may stop, and it is asked for after every leaf.
 #[derive(Default)]
-pub(super) struct CoverDepths {
+pub(super) struct NearestDepths {
     pub depth: Vec<f64>,
+    pub group: Vec<u32>,
     /// Slots still at infinity: while any is, there is no stop depth.
     unset: usize,
     farthest: f64,
@@ -24,10 +25,12 @@ pub(super) struct CoverDepths {
     stale: bool,
 }
 
-impl CoverDepths {
+impl NearestDepths {
     pub fn reset(&mut self, len: usize) {
         self.depth.clear();
         self.depth.resize(len, f64::INFINITY);
+        self.group.clear();
+        self.group.resize(len, NO_GROUP);
         self.unset = len;
         self.farthest = f64::INFINITY;
         self.stale = false;
@@ -35,12 +38,13 @@ impl CoverDepths {
 
     /// Records `depth` at slot `k` if it is nearer than what is there.
     #[inline]
-    fn lower(&mut self, k: usize, depth: f64) {
+    fn lower(&mut self, k: usize, depth: f64, group: u32) {
         let old = self.depth[k];
-        if !(depth < old) {
+        if depth.is_nan() || depth >= old {
             return;
         }
         self.depth[k] = depth;
+        self.group[k] = group;
         if old == f64::INFINITY {
             self.unset -= 1;
             self.stale |= self.unset == 0;
@@ -63,14 +67,23 @@ impl CoverDepths {
     }
 }
 
+/// What [`classify`] records a triangle into.
+pub(super) enum Target<'a> {
+    /// Cover depths per cell and `(cell, group, depth)` contacts
+    /// ([`CellAssignment::Conservative`](super::tracer::CellAssignment)).
+    Cells(&'a mut NearestDepths, &'a mut Vec<(u32, u32, f64)>),
+    /// Nearest hit per sample ray: `(N+1)^2` cell corners, then `N^2` cell
+    /// centres ([`CellAssignment::Sampled`](super::tracer::CellAssignment)).
+    Samples(&'a mut NearestDepths),
+}
+
 /// Window distance within which a point counts as on a line.
 const MARGIN: f64 = 1e-9;
 
-/// Classifies one triangle against the cells of frustum `f`
-/// ([`CellAssignment::Conservative`](super::tracer::CellAssignment)):
-/// records a `(cell, group, depth)` contact for every cell it touches and
-/// lowers the cover depth of every cell it fully covers.
-#[allow(clippy::too_many_arguments)]
+/// Classifies one triangle against the cells of frustum `f`: records a
+/// contact for every cell it touches and lowers the cover depth of every
+/// cell it fully covers, or, sampling, records it where it is the nearest
+/// hit of a sample ray.
 pub(super) fn classify(
     f: &Frustum,
     surfaces: &Surfaces,
@@ -78,8 +91,7 @@ pub(super) fn classify(
     group: u32,
     n: usize,
     scale: f64,
-    cover: &mut CoverDepths,
-    contacts: &mut Vec<(u32, u32, f64)>,
+    target: Target,
 ) {
     let plane = surfaces.group(group).plane;
     let apex_distance = plane.distance(f.apex);
@@ -143,6 +155,19 @@ pub(super) fn classify(
     let edges = &edges[..count];
     let step = 1.0 / n as f64;
     let plane_offset = -apex_distance;
+    let (cover, contacts) = match target {
+        Target::Cells(cover, contacts) => (cover, contacts),
+        Target::Samples(samples) => {
+            let footprint = Footprint {
+                edges,
+                cells: [i0, i1, j0, j1],
+                n,
+                wholly_valid,
+            };
+            record_samples(f, plane, scale, group, &footprint, samples);
+            return;
+        }
+    };
     let depth = w.iter().map(|q| q.z).fold(f64::INFINITY, f64::min).max(0.0);
     let can_cover = wholly_valid && !clipped;
     for i in i0..=i1 {
@@ -175,8 +200,78 @@ pub(super) fn classify(
                     .iter()
                     .map(|q| plane_offset / plane.normal.dot(f.direction(q.x, q.y)))
                     .fold(0.0f64, f64::max);
-                cover.lower(cell as usize, far);
+                cover.lower(cell as usize, far, group);
             }
+        }
+    }
+}
+
+/// A triangle projected into a frustum's window.
+struct Footprint<'a> {
+    /// Edge lines `(normal, offset)`, the triangle on their positive side.
+    edges: &'a [(DVec2, f64)],
+    /// The cells its window bounds span, `[i0, i1, j0, j1]` inclusive.
+    cells: [usize; 4],
+    n: usize,
+    /// No part of it lies behind the frustum's near plane.
+    wholly_valid: bool,
+}
+
+/// Records the triangle (of plane group `group`) at every sample ray of its
+/// cells that meets it nearer than what that ray has met so far.
+fn record_samples(
+    f: &Frustum,
+    plane: super::surfaces::Plane,
+    scale: f64,
+    group: u32,
+    footprint: &Footprint,
+    samples: &mut NearestDepths,
+) {
+    let Footprint {
+        edges,
+        cells: [i0, i1, j0, j1],
+        n,
+        wholly_valid,
+    } = *footprint;
+    let step = 1.0 / n as f64;
+    let plane_offset = -plane.distance(f.apex);
+    // The plane's depth along window point (x, y) is `plane_offset` over
+    // `normal · direction(x, y)`, and that denominator is linear in (x, y).
+    let (d0, du, dv) = (
+        plane.normal.dot(f.corner),
+        plane.normal.dot(f.edge_u),
+        plane.normal.dot(f.edge_v),
+    );
+    let mut record = |k: usize, x: f64, y: f64| {
+        if edges
+            .iter()
+            .any(|&(normal, offset)| normal.x * x + normal.y * y - offset < -MARGIN)
+        {
+            return;
+        }
+        let depth = plane_offset / (d0 + du * x + dv * y);
+        if !(depth > 0.0 && depth < samples.depth[k]) {
+            return;
+        }
+        // A triangle wholly on the valid side of the near plane needs no
+        // test per hit point.
+        let valid = wholly_valid
+            || f.near.as_ref().is_none_or(|near| {
+                near.distance(f.apex + f.direction(x, y) * depth) > 1e-9 * scale
+            });
+        if valid {
+            samples.lower(k, depth, group);
+        }
+    };
+    for i in i0..=i1 + 1 {
+        for j in j0..=j1 + 1 {
+            record(i * (n + 1) + j, i as f64 * step, j as f64 * step);
+        }
+    }
+    for i in i0..=i1 {
+        for j in j0..=j1 {
+            let (x, y) = ((i as f64 + 0.5) * step, (j as f64 + 0.5) * step);
+            record((n + 1) * (n + 1) + i * n + j, x, y);
         }
     }
 }
@@ -211,24 +306,24 @@ mod tests {
     use super::*;
 
     #[test]
-    fn farthest_is_infinite_until_every_cell_is_covered_then_follows_the_cells() {
-        let mut d = CoverDepths::default();
+    fn farthest_is_infinite_until_every_slot_is_set_then_follows_the_slots() {
+        let mut d = NearestDepths::default();
         d.reset(3);
-        d.lower(0, 5.0);
-        d.lower(1, 2.0);
+        d.lower(0, 5.0, 1);
+        d.lower(1, 2.0, 1);
         assert_eq!(d.farthest(), f64::INFINITY);
-        d.lower(2, 3.0);
+        d.lower(2, 3.0, 2);
         assert_eq!(d.farthest(), 5.0);
         // Not nearer: ignored.
-        d.lower(0, 6.0);
-        assert_eq!((d.farthest(), d.depth[0]), (5.0, 5.0));
-        // A cell below the farthest changes nothing of it.
-        d.lower(1, 1.0);
+        d.lower(0, 6.0, 3);
+        assert_eq!((d.farthest(), d.group[0]), (5.0, 1));
+        // A slot below the farthest changes nothing of it.
+        d.lower(1, 1.0, 3);
         assert_eq!(d.farthest(), 5.0);
-        // The farthest cell comes nearer: the next farthest takes over.
-        d.lower(0, 0.5);
+        // The farthest slot comes nearer: the next farthest takes over.
+        d.lower(0, 0.5, 3);
         assert_eq!(d.farthest(), 3.0);
-        d.lower(2, f64::NAN);
+        d.lower(2, f64::NAN, 3);
         assert_eq!(d.farthest(), 3.0);
         d.reset(2);
         assert_eq!(d.farthest(), f64::INFINITY);

@@ -129,7 +129,8 @@ impl BoxCull {
 
 /// Calls `visit(first, count)` with the flat [`Surfaces`] indices of the
 /// triangles of every leaf whose box may overlap the frustum and starts
-/// nearer than the stop depth, which `visit` returns (infinity: no stop).
+/// nearer than the stop depth, which `visit` returns (infinity: no stop;
+/// negative infinity ends the walk).
 /// `stack` is scratch space.
 pub(crate) fn for_each_leaf(
     bvh: &SceneBvh,
@@ -213,6 +214,9 @@ pub(crate) fn for_each_leaf(
 /// The caller's stop depth as a box bound: rounded up, so that no box that
 /// could hold something nearer is skipped.
 fn stop_depth(d: f64) -> f32 {
+    if d == f64::NEG_INFINITY {
+        return f32::NEG_INFINITY;
+    }
     let d = d * (1.0 + 1e-6);
     if d.is_finite() {
         d as f32 * (1.0 + 4.0 * f32::EPSILON) + f32::MIN_POSITIVE

@@ -8,8 +8,10 @@
 //! ([`classify`](super::classify)) go to every triangle that touches them
 //! in the frustum's window space, except those wholly behind a triangle
 //! that covers the cell, so that every image source is proposed; sampled
-//! cells ([`sample_rays`]) go to what their corner and centre rays meet
-//! first. Either way exact validation ([`validate`](super::path::validate))
+//! cells go to what their corner and centre rays meet first, found by
+//! classifying the frustum's triangles against the sample points while
+//! they are few and by casting the rays ([`sample_rays`]) when they are
+//! many. Either way exact validation ([`validate`](super::path::validate))
 //! rejects what is not a path.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -17,7 +19,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::DVec3;
 
 use super::beams::Beams;
-use super::classify::{classify, CoverDepths};
+use super::classify::{classify, NearestDepths, Target};
 use super::cull::{for_each_leaf, BoxCull};
 use super::deadline::{Deadline, CLOCK_PERIOD};
 use super::frustum::Frustum;
@@ -112,15 +114,16 @@ struct Pending {
 #[derive(Default)]
 struct Scratch {
     /// Per cell, the nearest depth at which a triangle covers it wholly.
-    cover: CoverDepths,
+    cover: NearestDepths,
     /// `(cell, group, nearest depth)` of every cell-triangle contact.
     contacts: Vec<(u32, u32, f64)>,
     /// `(group, cell)` pairs that survive occlusion.
     touched: Vec<(u32, u32)>,
     rects: Vec<[u32; 4]>,
     stack: Vec<(u32, f32)>,
-    /// The group each sample ray meets first ([`CellAssignment::Sampled`]).
-    samples: Vec<u32>,
+    /// The nearest hit of each sample ray ([`CellAssignment::Sampled`];
+    /// empty otherwise).
+    samples: NearestDepths,
     history: Vec<(u32, Event)>,
     pending: Vec<Pending>,
 }
@@ -319,24 +322,8 @@ fn expand(
     let n = options.sampling.clamp(1, 64) as usize;
     let last_group = (p.history != u32::MAX).then(|| scratch.history[p.history as usize].1.group());
     scratch.touched.clear();
-    match options.cells {
-        CellAssignment::Sampled => {
-            let Scratch {
-                samples, touched, ..
-            } = scratch;
-            sample_rays::cast(
-                input.bvh,
-                input.surfaces,
-                &p.frustum,
-                last_group,
-                n,
-                samples,
-            );
-            stats.sample_rays += samples.len() as u64;
-            sampled_cells(samples, n, touched);
-        }
-        CellAssignment::Conservative => conservative_cells(input, p, last_group, n, scratch, stats),
-    }
+    let f = &p.frustum;
+    touch_cells(input, f, last_group, n, options.cells, scratch, stats);
     scratch.touched.sort_unstable();
     scratch.touched.dedup();
     let touched = std::mem::take(&mut scratch.touched);
@@ -346,49 +333,109 @@ fn expand(
     scratch.touched = touched;
 }
 
-/// Pushes to `scratch.touched` a `(group, cell)` pair for every triangle
-/// touching a cell that no covering triangle hides.
-fn conservative_cells(
+/// Above this many triangles in one frustum, sample rays cost less than
+/// classifying the triangles against the samples: a ray through the hall's
+/// 4-wide tree costs about as much as two classified triangles, and a
+/// frustum has `(N+1)^2 + N^2` rays (145 at N = 8). Below it, in rooms
+/// of large walls, classification is several times cheaper.
+const SAMPLE_CLASSIFY_BUDGET: u64 = 96;
+
+/// Pushes to `scratch.touched` a `(group, cell)` pair for every plane group
+/// a cell of `f` is handed to. Conservative: every triangle touching the
+/// cell that no covering triangle hides. Sampled: the groups the cell's
+/// five sample rays meet first, found by classifying the triangles the
+/// cull reaches while they are few, else by casting the rays.
+fn touch_cells(
     input: &TraceInput,
-    p: &Pending,
-    last_group: Option<u32>,
+    f: &Frustum,
+    skip: Option<u32>,
     n: usize,
+    cells: CellAssignment,
     scratch: &mut Scratch,
     stats: &mut TraceStats,
 ) {
-    let f = &p.frustum;
+    match cells {
+        CellAssignment::Sampled => {
+            scratch.samples.reset((n + 1) * (n + 1) + n * n);
+            let budget = Some(SAMPLE_CLASSIFY_BUDGET);
+            if !classify_culled(input, f, skip, n, budget, scratch, stats) {
+                let hit = &mut scratch.samples.group;
+                sample_rays::cast(input.bvh, input.surfaces, f, skip, n, hit);
+                stats.sample_rays += hit.len() as u64;
+            }
+            sampled_cells(&scratch.samples.group, n, &mut scratch.touched);
+        }
+        CellAssignment::Conservative => {
+            scratch.cover.reset(n * n);
+            scratch.contacts.clear();
+            classify_culled(input, f, skip, n, None, scratch, stats);
+            // A contact counts unless a covering triangle lies wholly in
+            // front of it over the whole cell.
+            let cover = &scratch.cover.depth;
+            scratch.touched.extend(
+                scratch
+                    .contacts
+                    .iter()
+                    .filter(|&&(cell, _, depth)| depth <= cover[cell as usize] * (1.0 + 1e-9))
+                    .map(|&(cell, group, _)| (group, cell)),
+            );
+        }
+    }
+}
+
+/// Classifies the triangles the cull of `f` reaches, nearest leaves first,
+/// into the cover depths and contacts (conservative cells) or, given a
+/// `sample_budget`, into the sample hits, until nothing nearer can remain.
+/// Sampling gives up, returning false, once more than `sample_budget`
+/// triangles were classified.
+fn classify_culled(
+    input: &TraceInput,
+    f: &Frustum,
+    skip: Option<u32>,
+    n: usize,
+    sample_budget: Option<u64>,
+    scratch: &mut Scratch,
+    stats: &mut TraceStats,
+) -> bool {
     let scale = input.surfaces.scale();
-    scratch.cover.reset(n * n);
-    scratch.contacts.clear();
     let cull = BoxCull::new(f, (scale * 1e-6) as f32);
     let Scratch {
         cover,
         contacts,
         stack,
+        samples,
         ..
     } = scratch;
+    let sampled = sample_budget.is_some();
+    let budget = sample_budget.unwrap_or(u64::MAX);
+    let mut tested = 0u64;
     for_each_leaf(input.bvh, input.surfaces, &cull, stack, |first, count| {
         for i in first..first + count {
             let (corners, group) = input.surfaces.slot(i);
-            if group == NO_GROUP || Some(group) == last_group {
+            if group == NO_GROUP || Some(group) == skip {
                 continue;
             }
-            stats.triangle_tests += 1;
-            classify(f, input.surfaces, corners, group, n, scale, cover, contacts);
+            tested += 1;
+            let target = if sampled {
+                Target::Samples(samples)
+            } else {
+                Target::Cells(cover, contacts)
+            };
+            classify(f, input.surfaces, corners, group, n, scale, target);
         }
-        // Nothing beyond the farthest covered cell can be handed a cell.
-        cover.farthest()
+        if tested > budget {
+            return f64::NEG_INFINITY;
+        }
+        // Nothing beyond the farthest covered cell (or sample hit) can be
+        // handed a cell.
+        if sampled {
+            samples.farthest()
+        } else {
+            cover.farthest()
+        }
     });
-    // A contact counts unless a covering triangle lies wholly in front of
-    // it over the whole cell.
-    let cover = &scratch.cover.depth;
-    scratch.touched.extend(
-        scratch
-            .contacts
-            .iter()
-            .filter(|&&(cell, _, depth)| depth <= cover[cell as usize] * (1.0 + 1e-9))
-            .map(|&(cell, group, _)| (group, cell)),
-    );
+    stats.triangle_tests += tested;
+    tested <= budget
 }
 
 /// Pushes to `touched` a `(group, cell)` pair for every group that one of
