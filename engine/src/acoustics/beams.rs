@@ -40,14 +40,14 @@ impl Visit for Beams {
 const CHUNK: usize = 1024;
 
 impl Beams {
-    /// One primary frustum's beams, with its history arena and counters.
-    pub(crate) fn primary(mut beams: Beams, history: Vec<(u32, Event)>, stats: TraceStats) -> Self {
+    /// One tracing task's beams, with its history arena and counters.
+    pub(crate) fn part(mut beams: Beams, history: Vec<(u32, Event)>, stats: TraceStats) -> Self {
         beams.history = history;
         beams.stats = stats;
         beams
     }
 
-    /// Joins the beams of the primary frusta, in primary order.
+    /// Joins the beams of the tracing tasks, in task order.
     pub(crate) fn concat(parts: Vec<Beams>) -> Self {
         let mut out = Beams::default();
         for part in parts {

@@ -198,9 +198,10 @@ pub(crate) fn trace_keeping(
     use rayon::prelude::*;
     let kept = AtomicUsize::new(0);
     let over = |n: usize| n > max_beams;
-    let parts = Frustum::sphere(input.source, options.primary_split)
+    let (roots, root_stats) = expand_primaries(input, options, deadline)?;
+    let parts = roots
         .into_par_iter()
-        .map_init(Scratch::default, |scratch, f| {
+        .map_init(Scratch::default, |scratch, root| {
             let mut visitor = Keeping {
                 proposals: Proposals {
                     listeners,
@@ -210,20 +211,23 @@ pub(crate) fn trace_keeping(
                 kept: &kept,
                 max_beams,
             };
-            let stats = trace_primary(input, options, f, scratch, &mut visitor, deadline)?;
-            // The arena's parents index this primary's arena: it moves
+            let stats = trace_subtree(input, options, root, scratch, &mut visitor, deadline)?;
+            // The arena's parents index this subtree's arena: it moves
             // along with its beams, unless they are dropped anyway.
             let beams = (!over(kept.load(Ordering::Relaxed))).then(|| {
                 let history = std::mem::take(&mut scratch.history);
-                Beams::primary(visitor.beams, history, stats)
+                Beams::part(visitor.beams, history, stats)
             });
             Ok((visitor.proposals.found, stats, beams))
         })
         .collect::<Result<Vec<_>>>()?;
     let keep = !over(kept.load(Ordering::Relaxed));
     let mut proposals = vec![Vec::new(); listeners.len()];
-    let mut stats = TraceStats::default();
-    let mut beams = Vec::with_capacity(if keep { parts.len() } else { 0 });
+    let mut stats = root_stats;
+    let mut beams = Vec::with_capacity(if keep { parts.len() + 1 } else { 0 });
+    if keep {
+        beams.push(Beams::part(Beams::default(), Vec::new(), root_stats));
+    }
     for (found, s, b) in parts {
         for (all, mut f) in proposals.iter_mut().zip(found) {
             stats.proposals += f.len() as u64;
@@ -258,23 +262,79 @@ impl Visit for Keeping<'_> {
     }
 }
 
-/// Depth-first tracing of one primary frustum and everything it spawns.
-fn trace_primary(
+/// A frustum of order 1 and the event that made it: the root of one
+/// tracing task.
+struct Root {
+    pending: Pending,
+    event: Event,
+}
+
+/// Expands the frusta leaving the source into their children, each the
+/// root of its own task. A primary facing the far end of a hall spawns
+/// most of the work: traced as one task per primary, it would leave a core
+/// idle for a fifth of the trace.
+fn expand_primaries(
     input: &TraceInput,
     options: &TraceOptions,
-    primary: Frustum,
+    deadline: &Deadline,
+) -> Result<(Vec<Root>, TraceStats)> {
+    use rayon::prelude::*;
+    let parts = Frustum::sphere(input.source, options.primary_split)
+        .into_par_iter()
+        .map_init(Scratch::default, |scratch, frustum| {
+            deadline.check()?;
+            let mut stats = TraceStats {
+                frusta: 1,
+                ..TraceStats::default()
+            };
+            scratch.history.clear();
+            scratch.pending.clear();
+            if options.max_order > 0 {
+                let primary = Pending {
+                    frustum,
+                    history: u32::MAX,
+                    order: 0,
+                    energy: [1.0; BAND_COUNT],
+                };
+                expand(input, options, &primary, scratch, &mut stats);
+            }
+            let history = &scratch.history;
+            let roots: Vec<Root> = scratch
+                .pending
+                .drain(..)
+                .map(|pending| Root {
+                    event: history[pending.history as usize].1,
+                    pending,
+                })
+                .collect();
+            Ok((roots, stats))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut roots = Vec::new();
+    let mut stats = TraceStats::default();
+    for (r, s) in parts {
+        roots.extend(r);
+        stats = stats.add(s);
+    }
+    Ok((roots, stats))
+}
+
+/// Depth-first tracing of one root frustum and everything it spawns.
+fn trace_subtree(
+    input: &TraceInput,
+    options: &TraceOptions,
+    root: Root,
     scratch: &mut Scratch,
     visitor: &mut impl Visit,
     deadline: &Deadline,
 ) -> Result<TraceStats> {
     let mut stats = TraceStats::default();
     scratch.history.clear();
+    scratch.history.push((u32::MAX, root.event));
     scratch.pending.clear();
     scratch.pending.push(Pending {
-        frustum: primary,
-        history: u32::MAX,
-        order: 0,
-        energy: [1.0; BAND_COUNT],
+        history: 0,
+        ..root.pending
     });
     while let Some(p) = scratch.pending.pop() {
         if stats.frusta % CLOCK_PERIOD == 0 {
@@ -283,9 +343,7 @@ fn trace_primary(
             deadline.expired()?;
         }
         stats.frusta += 1;
-        if p.order > 0 {
-            visitor.visit(&p.frustum, &scratch.history, p.history);
-        }
+        visitor.visit(&p.frustum, &scratch.history, p.history);
         if p.order < options.max_order {
             expand(input, options, &p, scratch, &mut stats);
         }
