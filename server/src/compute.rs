@@ -1,17 +1,18 @@
 //! CPU-bound work (building hierarchies, simulations, ray batches) runs on
-//! rayon's pool, never on the async executor; the number of jobs waiting
-//! for it is capped so overload answers 503 instead of growing a queue.
+//! rayon, never on the async executor; the number of jobs waiting for it
+//! is capped so overload answers 503 instead of growing a queue.
 //!
-//! Jobs start in arrival order, no more at once than there are cores, and
-//! each running job has a rayon pool of its own. A job's parallel loops
-//! wait for their stolen parts, and a rayon thread that waits runs whatever
-//! else is queued in its pool: with every request in one pool, a late
-//! request ran inside an early one's wait and delayed it (64 queued impulse
-//! responses answered with p50 27 ms and p99 20 s), and a job waiting for
-//! a scene's lock inside the wait of the job holding it would deadlock.
-//! A pool per running job makes both impossible; one job at a time in one
-//! pool would too, but leaves a core idle in each job's serial parts
-//! (121 against 154 impulse responses per second in `frusta-bench serve`).
+//! Jobs start in arrival order, no more at once than there are cores (four
+//! at most), and each running job has a rayon pool of its own. A job's
+//! parallel loops wait for their stolen parts, and a rayon thread that
+//! waits runs whatever else is queued in its pool: with every request in
+//! one pool, a late request ran inside an early one's wait and delayed it
+//! (64 queued impulse responses answered with p50 27 ms and p99 20 s), and
+//! a job waiting for a scene's lock inside the wait of the job holding it
+//! would deadlock. A pool per running job makes both impossible; one job
+//! at a time in one pool would too, but leaves a core idle in each job's
+//! serial parts (121 against 182 impulse responses per second in
+//! `frusta-bench serve`).
 
 use std::sync::{Arc, Mutex};
 
@@ -19,6 +20,9 @@ use rayon::ThreadPool;
 use tokio::sync::{oneshot, Semaphore};
 
 use crate::error::ApiError;
+
+/// Jobs running at once, at most (see [`ComputePool::new`]).
+const MAX_RUNNING: usize = 4;
 
 #[derive(Clone)]
 pub struct ComputePool {
@@ -35,10 +39,12 @@ pub struct ComputePool {
 
 impl ComputePool {
     /// A pool that holds up to `capacity` jobs and runs one per core at
-    /// once, each with as many threads as there are cores.
+    /// once, four at most, each with as many threads as there are cores.
+    /// Two already keep every core busy through one job's serial parts;
+    /// past four, more pools would only multiply threads on the same cores.
     pub fn new(capacity: usize) -> Self {
         let cores = rayon::current_num_threads();
-        Self::with_workers(capacity, cores, cores)
+        Self::with_workers(capacity, cores.min(MAX_RUNNING), cores)
     }
 
     fn with_workers(capacity: usize, workers: usize, threads: usize) -> Self {

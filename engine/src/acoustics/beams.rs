@@ -113,26 +113,14 @@ impl Beams {
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
-
     use super::*;
     use crate::acoustics::deadline::Deadline;
     use crate::acoustics::tracer::{trace, trace_beams};
-    use crate::acoustics::{AcousticScene, CellAssignment, TraceOptions};
-    use crate::scene::generate::BoxRoom;
-    use crate::scene::{Material, Scene};
+    use crate::acoustics::{test_shoebox, AcousticScene, CellAssignment, TraceOptions};
 
     #[test]
     fn beams_propose_what_tracing_proposes() {
-        let mut room = BoxRoom::new(Vec3::ZERO, Vec3::new(10.0, 6.0, 3.0));
-        room.subdivisions = 2;
-        let scene = Scene::single_object(
-            "room",
-            room.generate().unwrap(),
-            Material::uniform("walls", 0.3).unwrap(),
-        )
-        .unwrap();
-        let scene = AcousticScene::new(&scene);
+        let scene = AcousticScene::new(&test_shoebox(2, 0.3));
         let input = scene.trace_input(DVec3::new(2.0, 3.5, 1.2));
         let listeners: Vec<DVec3> = (0..7)
             .map(|i| DVec3::new(1.0 + 1.2 * i as f64, 1.0 + 0.6 * i as f64, 1.5))

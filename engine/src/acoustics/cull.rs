@@ -224,3 +224,31 @@ fn stop_depth(d: f64) -> f32 {
         f32::INFINITY
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+
+    use super::*;
+    use crate::acoustics::{test_shoebox, AcousticScene};
+
+    /// The sampled cells give up on classification by answering negative
+    /// infinity: no leaf may follow.
+    #[test]
+    fn every_reachable_leaf_is_visited_unless_the_visitor_ends_the_walk() {
+        let scene = AcousticScene::new(&test_shoebox(16, 0.3));
+        let frustum = Frustum::sphere(DVec3::new(2.0, 3.5, 1.2), 1)[0];
+        let cull = BoxCull::new(&frustum, 0.0);
+        let mut stack = Vec::new();
+        let walk = |stop: f64, stack: &mut Vec<(u32, f32)>| {
+            let mut leaves = 0;
+            for_each_leaf(scene.bvh(), scene.surfaces(), &cull, stack, |_, _| {
+                leaves += 1;
+                stop
+            });
+            leaves
+        };
+        assert!(walk(f64::INFINITY, &mut stack) > 1);
+        assert_eq!(walk(f64::NEG_INFINITY, &mut stack), 1);
+    }
+}

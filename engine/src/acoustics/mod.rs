@@ -38,3 +38,18 @@ pub use propagation::{
 };
 pub use scene::{AcousticScene, FoundPaths};
 pub use tracer::{CellAssignment, TraceOptions, TraceStats};
+
+/// The 10 x 6 x 3 m box room the unit tests trace in, each wall split
+/// `subdivisions` times each way.
+#[cfg(test)]
+pub(crate) fn test_shoebox(subdivisions: u32, absorption: f32) -> crate::scene::Scene {
+    let mut room =
+        crate::scene::generate::BoxRoom::new(glam::Vec3::ZERO, glam::Vec3::new(10.0, 6.0, 3.0));
+    room.subdivisions = subdivisions;
+    crate::scene::Scene::single_object(
+        "room",
+        room.generate().unwrap(),
+        crate::scene::Material::uniform("walls", absorption).unwrap(),
+    )
+    .unwrap()
+}

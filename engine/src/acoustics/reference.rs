@@ -131,14 +131,7 @@ mod tests {
     #[test]
     fn box_room_matches_the_closed_form_image_sources() {
         let size = DVec3::new(10.0, 6.0, 3.0);
-        let mut room = BoxRoom::new(Vec3::ZERO, size.as_vec3());
-        room.subdivisions = 2;
-        let scene = Scene::single_object(
-            "room",
-            room.generate().unwrap(),
-            Material::uniform("w", 0.1).unwrap(),
-        )
-        .unwrap();
+        let scene = crate::acoustics::test_shoebox(2, 0.1);
         let bvh = SceneBvh::build(&scene, &BuildOptions::default());
         let surfaces = Surfaces::new(&bvh);
         let (s, l) = (DVec3::new(2.0, 3.5, 1.2), DVec3::new(7.3, 1.9, 1.7));

@@ -83,7 +83,8 @@ impl Default for TraceOptions {
 pub struct TraceStats {
     /// Frusta traced, primary and secondary.
     pub frusta: u64,
-    /// Triangle-against-frustum classifications (conservative cells).
+    /// Triangle-against-frustum classifications (conservative cells, and
+    /// sampled cells in frusta holding few triangles).
     pub triangle_tests: u64,
     /// Rays cast through the scene (sampled cells).
     pub sample_rays: u64,
@@ -395,7 +396,9 @@ fn expand(
 /// classifying the triangles against the samples: a ray through the hall's
 /// 4-wide tree costs about as much as two classified triangles, and a
 /// frustum has `(N+1)^2 + N^2` rays (145 at N = 8). Below it, in rooms
-/// of large walls, classification is several times cheaper.
+/// of large walls, classification is several times cheaper. A frustum
+/// over the budget throws away what it classified, so at most this many
+/// classifications are wasted per frustum.
 const SAMPLE_CLASSIFY_BUDGET: u64 = 96;
 
 /// Pushes to `scratch.touched` a `(group, cell)` pair for every plane group
