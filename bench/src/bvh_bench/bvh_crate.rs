@@ -76,6 +76,7 @@ fn na_area(b: &Aabb<f32, 3>) -> f32 {
 
 impl Accel for BvhCrate {
     const NAME: &'static str = "bvh";
+    const NOTE: &'static str = "Bvh::build_par (binned SAH on rayon); no refit";
     type Prepared = Vec<Tri>;
     type Ray = BRay;
     type RefitInput = ();

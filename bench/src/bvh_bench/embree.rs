@@ -1,20 +1,25 @@
 //! Embree 3 (3.13.5, system library) through the `embree3` crate; only with
-//! the `embree` feature.
+//! the `embree` feature. Two configurations, since Embree refits only a
+//! scene made for it and that scene is not its fastest static one:
 //!
-//! - build: a new scene (default quality, medium) with one triangle
-//!   geometry (build quality `REFIT`); timed: creating the geometry, copying
-//!   vertices and indices into Embree-owned buffers, committing, attaching
-//!   and `rtcCommitScene` (Embree builds on its own TBB threads);
+//! - `embree`: a static scene (default flags, quality medium), one triangle
+//!   geometry (quality medium). No refit: changing a static scene's vertices
+//!   means a rebuild, so the refit columns are empty;
+//! - `embree-refit`: what Embree documents for refitting: scene flag
+//!   `DYNAMIC`, scene quality `LOW` (the two-level mode, the only one in
+//!   which a geometry's quality is used) and geometry quality `REFIT`.
+//!   The first commit builds the geometry's BVH with SAH; a refit writes the
+//!   new vertices into the live vertex buffer, `rtcUpdateGeometryBuffer`,
+//!   `rtcCommitGeometry`, `rtcCommitScene`, and Embree refits that BVH in
+//!   place (and rebuilds the one-instance top level);
+//!
+//! In both:
+//! - build, timed: creating the geometry, copying vertices and indices into
+//!   Embree-owned buffers, committing, attaching and `rtcCommitScene`
+//!   (Embree builds on its own TBB pool, sized to rayon's thread count);
 //! - closest hit: `Scene::intersect` (`rtcIntersect1`), any hit:
 //!   `Scene::occluded` (`rtcOccluded1`), one ray at a time from the same
 //!   rayon chunks as every other implementation;
-//! - refit: new vertices written into the live vertex buffer,
-//!   `update_geometry_buffer`, `commit_geometry`, `rtcCommitScene`. Embree
-//!   documents the per-geometry `REFIT` quality as a hint used only in its
-//!   two-level mode (scene quality `LOW`); on a one-geometry scene the
-//!   measured time is close to a full build with every setting we tried
-//!   (scene quality medium, `LOW`, `REFIT`), so this is "Embree's update
-//!   path", probably a rebuild, not a true refit;
 //! - SAH: Embree's BVH is opaque: null;
 //! - memory: the net bytes Embree reports through its device memory
 //!   monitor while the scene is built (BVH and its triangle copies plus the
@@ -24,7 +29,8 @@ use std::sync::atomic::{AtomicIsize, Ordering};
 use std::sync::{Arc, OnceLock};
 
 use embree3::{
-    BufferUsage, BuildQuality, Device, Format, GeometryKind, IntersectContext, Ray, RayHit, Scene,
+    BufferUsage, BuildQuality, Config, Device, Format, GeometryKind, IntersectContext, Ray, RayHit,
+    Scene, SceneFlags,
 };
 use frusta_engine::geometry::Ray as FRay;
 use glam::Vec3;
@@ -32,11 +38,16 @@ use glam::Vec3;
 use super::Accel;
 use crate::mesh::BenchMesh;
 
-/// One device for the process, with its allocation counter.
+/// One device for the process, with its allocation counter. Its build
+/// threads are as many as rayon's, so `--threads` holds for Embree too.
 fn device() -> &'static (Device, Arc<AtomicIsize>) {
     static DEVICE: OnceLock<(Device, Arc<AtomicIsize>)> = OnceLock::new();
     DEVICE.get_or_init(|| {
-        let device = Device::new().expect("embree device (is libembree3 installed?)");
+        let config = Config {
+            threads: rayon::current_num_threads() as u32,
+            ..Config::default()
+        };
+        let device = Device::with_config(config).expect("embree device (is libembree3 installed?)");
         let bytes = Arc::new(AtomicIsize::new(0));
         let counter = bytes.clone();
         device.set_memory_monitor_function(move |b, post| {
@@ -50,7 +61,8 @@ fn device() -> &'static (Device, Arc<AtomicIsize>) {
     })
 }
 
-pub struct Embree {
+/// `REFIT`: the scene made for refitting (`embree-refit`), else static.
+pub struct Embree<const REFIT: bool> {
     scene: Scene<'static>,
     geom_id: u32,
     bytes: usize,
@@ -61,8 +73,13 @@ pub struct Prepared {
     triangles: Vec<[u32; 3]>,
 }
 
-impl Accel for Embree {
-    const NAME: &'static str = "embree";
+impl<const REFIT: bool> Accel for Embree<REFIT> {
+    const NAME: &'static str = if REFIT { "embree-refit" } else { "embree" };
+    const NOTE: &'static str = if REFIT {
+        "DYNAMIC scene, quality LOW (two-level), geometry REFIT; refit: new vertex buffer, rtcCommitGeometry + rtcCommitScene (TBB)"
+    } else {
+        "static scene, quality medium (TBB); no refit (a static scene is rebuilt)"
+    };
     type Prepared = Prepared;
     type Ray = Ray;
     type RefitInput = Vec<[f32; 3]>;
@@ -96,9 +113,13 @@ impl Accel for Embree {
         )
         .unwrap()
         .copy_from_slice(&p.triangles);
-        geom.set_build_quality(BuildQuality::REFIT);
-        let geom = geom.commit();
         let mut scene = device.create_scene().unwrap();
+        if REFIT {
+            geom.set_build_quality(BuildQuality::REFIT);
+            scene.set_flags(SceneFlags::DYNAMIC);
+            scene.set_build_quality(BuildQuality::LOW);
+        }
+        let geom = geom.commit();
         let geom_id = scene.attach_geometry(&geom);
         scene.commit();
         let bytes = (counter.load(Ordering::Relaxed) - before).max(0) as usize;
@@ -129,7 +150,7 @@ impl Accel for Embree {
     }
 
     fn prepare_refit(&self, _: &BenchMesh, positions: &[Vec3]) -> Option<Vec<[f32; 3]>> {
-        Some(positions.iter().map(|p| p.to_array()).collect())
+        REFIT.then(|| positions.iter().map(|p| p.to_array()).collect())
     }
 
     fn refit(&mut self, positions: &Vec<[f32; 3]>) {

@@ -13,6 +13,7 @@ pub struct Frusta {
 
 impl Accel for Frusta {
     const NAME: &'static str = "frusta";
+    const NOTE: &'static str = "binned SAH on rayon, collapsed to 4-wide; refit: leaves on rayon, inner nodes in one serial sweep";
     type Prepared = TriangleMesh;
     type Ray = Ray;
     type RefitInput = TriangleMesh;

@@ -1,44 +1,50 @@
 //! `frusta-bench bvh`: our BVH against peer libraries, side by side on the
 //! same mesh and the same rays.
 //!
-//! Every implementation is one small [`Accel`] impl in its own file; the
-//! driver [`run`] measures all of them the same way:
+//! Every implementation is one small [`Accel`] impl in its own file; all of
+//! them are measured the same way, in interleaved rounds
+//! ([`rounds`]: medians over rounds, ratios to ours within a round). A
+//! round of one implementation ([`measure`]):
 //! - build: the mesh is converted to the peer's input outside the timer
-//!   ([`Accel::prepare`], before each build); one warm-up build, then the median of
-//!   `build_runs` timed [`Accel::build`] calls;
-//! - trace: rays are converted to the peer's ray type outside the timer; one
-//!   warm-up pass (which also records closest-hit distances for the
-//!   cross-check), then the best of `trace_runs` timed passes. Every pass is
-//!   `par_chunks` over rayon's pool, so all implementations use the same
-//!   threads;
-//! - refit: after tracing, the vertices are moved slightly
-//!   ([`crate::mesh::BenchMesh::deformed_positions`]) and back, alternately;
-//!   the median of the timed refits.
+//!   ([`Accel::prepare`], before each build); the median of `build_runs`
+//!   timed [`Accel::build`] calls (one untimed warm-up in the first round);
+//! - trace: rays are converted to the peer's ray type outside the timer;
+//!   one timed pass per ray set (in the first round after an untimed pass
+//!   that records closest-hit distances for the cross-check with ours).
+//!   Every pass is `par_chunks` over rayon's pool, so all implementations
+//!   trace on the same threads;
+//! - refit: the vertices are moved slightly
+//!   ([`crate::mesh::BenchMesh::deformed_positions`]) and back, alternately,
+//!   median of the timed refits; then a last refit to the moved vertices and
+//!   [`check`]: sampled rays against brute force on the moved mesh.
 
 pub mod bvh_crate;
+pub mod check;
+pub mod cli;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod frusta;
+pub mod measure;
 pub mod obvhs;
 pub mod parry;
-
-use std::hint::black_box;
-use std::time::Instant;
+pub mod rounds;
 
 use frusta_engine::geometry::Ray;
 use glam::Vec3;
-use rayon::prelude::*;
 
 use crate::mesh::BenchMesh;
-use crate::report::{ImplResult, MraysPerS};
-
-/// Rays per rayon task.
-const CHUNK: usize = 1024;
+use measure::{Input, Measured};
 
 /// One acceleration structure under test. Plain functions around a built
 /// structure; conversions (`prepare`, `ray`, `prepare_refit`) are untimed.
 pub trait Accel: Sized + Sync {
     const NAME: &'static str;
+    /// Whether the build runs on every thread (rayon's, or Embree's own
+    /// pool of the same size); `false` labels a single-threaded builder.
+    const PARALLEL_BUILD: bool = true;
+    /// One line for the report: what the build and refit are, on how many
+    /// threads.
+    const NOTE: &'static str;
     /// The mesh in the peer's input format.
     type Prepared;
     /// The peer's ray type (with any per-ray precomputation it wants).
@@ -62,86 +68,35 @@ pub trait Accel: Sized + Sync {
     fn memory_bytes(&self) -> usize;
 }
 
-/// What every implementation is measured on.
-pub struct Input<'a> {
-    pub mesh: &'a BenchMesh,
-    pub coherent: &'a [Ray],
-    pub incoherent: &'a [Ray],
-    /// Our closest-hit distances on `coherent` then `incoherent`; `None`
-    /// while measuring ourselves.
-    pub reference: Option<&'a [Option<f32>]>,
-    pub build_runs: usize,
-    pub trace_runs: usize,
+/// An implementation as the driver sees it: its labels and one round.
+pub struct Impl {
+    pub name: &'static str,
+    pub parallel_build: bool,
+    pub note: &'static str,
+    pub measure: fn(&Input, bool) -> Measured,
 }
 
-/// The measurements plus the closest-hit distances (coherent then
-/// incoherent) for the cross-check.
-pub struct Measured {
-    pub result: ImplResult,
-    pub distances: Vec<Option<f32>>,
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+fn entry<A: Accel>() -> Impl {
+    Impl {
+        name: A::NAME,
+        parallel_build: A::PARALLEL_BUILD,
+        note: A::NOTE,
+        measure: measure::measure::<A>,
     }
 }
 
-fn ms_since(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
-
-fn closest_all<A: Accel>(a: &A, rays: &[A::Ray]) -> Vec<Option<f32>> {
-    let mut out = vec![None; rays.len()];
-    out.par_chunks_mut(CHUNK)
-        .zip(rays.par_chunks(CHUNK))
-        .for_each(|(o, r)| {
-            for (o, r) in o.iter_mut().zip(r) {
-                *o = a.closest(r);
-            }
-        });
-    out
-}
-
-/// Million rays per second, best of `runs` timed passes.
-fn rate(rays: usize, runs: usize, mut pass: impl FnMut()) -> f64 {
-    let best = (0..runs.max(1))
-        .map(|_| {
-            let t = Instant::now();
-            pass();
-            t.elapsed().as_secs_f64()
-        })
-        .fold(f64::INFINITY, f64::min);
-    rays as f64 / best / 1e6
-}
-
-fn closest_rate<A: Accel>(a: &A, rays: &[A::Ray], runs: usize) -> f64 {
-    rate(rays.len(), runs, || {
-        let hits: usize = rays
-            .par_chunks(CHUNK)
-            .map(|c| c.iter().filter(|r| a.closest(r).is_some()).count())
-            .sum();
-        black_box(hits);
-    })
-}
-
-fn any_rate<A: Accel>(a: &A, rays: &[A::Ray], runs: usize) -> f64 {
-    let warm: usize = rays
-        .par_chunks(CHUNK)
-        .map(|c| c.iter().filter(|r| a.any(r)).count())
-        .sum();
-    black_box(warm);
-    rate(rays.len(), runs, || {
-        let hits: usize = rays
-            .par_chunks(CHUNK)
-            .map(|c| c.iter().filter(|r| a.any(r)).count())
-            .sum();
-        black_box(hits);
-    })
+/// Every implementation compiled in, in report order (ours first).
+pub fn impls() -> Vec<Impl> {
+    vec![
+        entry::<frusta::Frusta>(),
+        entry::<bvh_crate::BvhCrate>(),
+        entry::<obvhs::Obvhs>(),
+        entry::<parry::Parry>(),
+        #[cfg(feature = "embree")]
+        entry::<embree::Embree<false>>(),
+        #[cfg(feature = "embree")]
+        entry::<embree::Embree<true>>(),
+    ]
 }
 
 /// The fraction of rays whose closest hit differs from ours: hit vs miss, or
@@ -157,87 +112,6 @@ pub fn mismatch(ours: &[Option<f32>], theirs: &[Option<f32>]) -> f64 {
         })
         .count();
     bad as f64 / ours.len().max(1) as f64
-}
-
-/// Measures one implementation.
-pub fn run<A: Accel>(input: &Input) -> Measured {
-    let mesh = input.mesh;
-    drop(black_box(A::build(A::prepare(mesh))));
-    let mut times = Vec::new();
-    let mut built = None;
-    for _ in 0..input.build_runs.max(1) {
-        drop(built.take());
-        let prepared = A::prepare(mesh);
-        let t = Instant::now();
-        let a = A::build(prepared);
-        times.push(ms_since(t));
-        built = Some(a);
-    }
-    let build_ms = median(times);
-    let mut accel = built.expect("at least one build");
-    let sah_cost = accel.sah_cost();
-    let bytes = accel.memory_bytes();
-
-    let coherent: Vec<A::Ray> = input.coherent.iter().map(|r| accel.ray(r)).collect();
-    let incoherent: Vec<A::Ray> = input.incoherent.iter().map(|r| accel.ray(r)).collect();
-
-    // Warm-up passes that also give the distances for the cross-check.
-    let mut distances = closest_all(&accel, &coherent);
-    distances.extend(closest_all(&accel, &incoherent));
-    let runs = input.trace_runs;
-    let mrays_per_s = MraysPerS {
-        coherent_closest: closest_rate(&accel, &coherent, runs),
-        incoherent_closest: closest_rate(&accel, &incoherent, runs),
-        coherent_any: any_rate(&accel, &coherent, runs),
-        incoherent_any: any_rate(&accel, &incoherent, runs),
-    };
-    let mismatch_fraction = input.reference.map_or(0.0, |r| mismatch(r, &distances));
-
-    let deformed = mesh.deformed_positions();
-    let refit_ms = accel
-        .prepare_refit(mesh, &deformed)
-        .zip(accel.prepare_refit(mesh, mesh.positions()))
-        .map(|(moved, original)| {
-            accel.refit(&original); // warm-up
-            let times = (0..input.build_runs.max(1) * 2)
-                .map(|i| {
-                    let target = if i % 2 == 0 { &moved } else { &original };
-                    let t = Instant::now();
-                    accel.refit(target);
-                    ms_since(t)
-                })
-                .collect();
-            median(times)
-        });
-
-    Measured {
-        result: ImplResult {
-            name: A::NAME,
-            build_ms,
-            refit_ms,
-            sah_cost,
-            mrays_per_s,
-            bytes_per_triangle: bytes as f64 / mesh.mesh.triangle_count() as f64,
-            mismatch_fraction,
-        },
-        distances,
-    }
-}
-
-/// Which implementations to run, in report order.
-pub const IMPLS: &[&str] = &["frusta", "bvh", "obvhs", "parry3d", "embree"];
-
-/// Runs implementation `name`; `None` if it is not compiled in.
-pub fn run_named(name: &str, input: &Input) -> Option<Measured> {
-    Some(match name {
-        "frusta" => run::<frusta::Frusta>(input),
-        "bvh" => run::<bvh_crate::BvhCrate>(input),
-        "obvhs" => run::<obvhs::Obvhs>(input),
-        "parry3d" => run::<parry::Parry>(input),
-        #[cfg(feature = "embree")]
-        "embree" => run::<embree::Embree>(input),
-        _ => return None,
-    })
 }
 
 /// Sum of `SA(node)` over inner nodes plus `SA(leaf) * tris` over leaves,

@@ -86,6 +86,7 @@ impl Obvhs {
 
 impl Accel for Obvhs {
     const NAME: &'static str = "obvhs";
+    const NOTE: &'static str = "PLOC and reinsertion on rayon, serial CWBVH conversion; refit: Bvh2::refit_all and the conversion, one thread";
     type Prepared = Vec<Triangle>;
     type Ray = Ray;
     type RefitInput = Vec<Triangle>;

@@ -1,6 +1,12 @@
-//! `parry3d` (0.31): a `TriMesh` (default flags) and its BVH ray casts
-//! through the `RayCast` trait.
+//! `parry3d` (0.31, `parallel` feature): a `TriMesh` (default flags) and its
+//! BVH ray casts through the `RayCast` trait.
 //!
+//! - threads: the `parallel` feature is on, but parry 0.31 parallelises
+//!   neither its BVH builders (its own docs: "Neither strategy is currently
+//!   parallelized") nor `TriMesh::set_vertices`, whose refit is a serial
+//!   loop (the parallel `Bvh::refit_parallel` is not reachable through a
+//!   `TriMesh`). Build and refit are therefore single-threaded and labelled
+//!   so; rays run on every thread like everyone's;
 //! - closest hit: `RayCast::cast_local_ray(ray, inf, solid = true)`;
 //! - any hit: `RayCast::intersects_local_ray`. parry has no early-exit
 //!   any-hit for triangle meshes: the default method runs the closest-hit
@@ -40,6 +46,8 @@ fn aabb_area(b: &Aabb) -> f32 {
 
 impl Accel for Parry {
     const NAME: &'static str = "parry3d";
+    const PARALLEL_BUILD: bool = false;
+    const NOTE: &'static str = "TriMesh::new (binned, one thread: parry 0.31 has no parallel build); refit: TriMesh::set_vertices, one thread";
     type Prepared = (Vec<Vector>, Vec<[u32; 3]>);
     type Ray = Ray;
     type RefitInput = Vec<Vector>;
