@@ -213,22 +213,31 @@ pub(super) fn first_hit(
 }
 
 /// Removes, from paths sorted by length, every path that is another one
-/// met in a different order: the same image source and length, which
-/// happens only when a path runs through the edge between two planes (both
-/// orders of the two reflections there are valid). Of each set, the one
-/// with the smallest event sequence is kept, so the result does not depend
-/// on which orders were proposed.
+/// met in a different order: the same image source, length and points,
+/// which happens only when a path runs through the edge between two planes
+/// (both orders of the two reflections there are valid). Of each set, the
+/// one with the smallest event sequence is kept, so the result does not
+/// depend on which orders were proposed. Distinct paths may share an image
+/// source and length (a room symmetric about a wall it reflects off twice);
+/// their points differ, and both are kept.
 pub fn dedup_paths(paths: &mut Vec<ValidPath>) {
     let mut kept: Vec<ValidPath> = Vec::with_capacity(paths.len());
     for p in paths.drain(..) {
         let tol = 1e-9 * p.length.max(1e-3);
+        let same_points = |k: &ValidPath| {
+            k.vertices.len() == p.vertices.len()
+                && k.vertices
+                    .iter()
+                    .zip(&p.vertices)
+                    .all(|(a, b)| a.point.distance(b.point) <= tol)
+        };
         // Sorted by length: only the tail within `tol` can match.
         let same = kept
             .iter()
             .enumerate()
             .rev()
             .take_while(|(_, k)| p.length - k.length <= tol)
-            .find(|(_, k)| k.image_source.distance(p.image_source) <= tol)
+            .find(|(_, k)| k.image_source.distance(p.image_source) <= tol && same_points(k))
             .map(|(i, _)| i);
         match same {
             Some(i) => {
