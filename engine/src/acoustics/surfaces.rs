@@ -10,7 +10,7 @@
 
 use std::collections::HashMap;
 
-use glam::{DVec3, Vec3A};
+use glam::{DQuat, DVec3, Vec3, Vec3A};
 use rayon::prelude::*;
 
 use crate::query::SceneBvh;
@@ -107,7 +107,21 @@ impl Surfaces {
         } else {
             f64::from((b.max - b.min).length()).max(f64::MIN_POSITIVE)
         };
-        let (slot_group, groups) = group_planes(&corners, &materials, scale);
+        // Planes from the object-frame vertices moved in f64: world
+        // corners are rounded to f32, which would tilt a rotated wall's
+        // plane by up to 1e-7 and move a fourth-order image by tens of
+        // micrometres.
+        let mut planes = Vec::with_capacity(total as usize);
+        for i in &bvh.instances {
+            let q = i.to_world.rotation;
+            let rotation =
+                DQuat::from_xyzw(q.x.into(), q.y.into(), q.z.into(), q.w.into()).normalize();
+            let translation = i.to_world.translation.as_dvec3();
+            planes.par_extend(i.bvh.leaf_triangles().par_iter().map(|tri| {
+                triangle_plane(&tri.map(|p| rotation * DVec3::from(Vec3::from(p)) + translation))
+            }));
+        }
+        let (slot_group, groups) = group_planes(&planes, &materials, scale);
         let mut mesh_group = vec![NO_GROUP; total as usize];
         let mut mesh_slot = vec![0; total as usize];
         for (o, i) in bvh.instances.iter().enumerate() {
@@ -198,13 +212,12 @@ impl Surfaces {
 /// accurately known. Coplanar triangles that straddle a quantisation step
 /// land in two groups, which costs one extra frustum, never a path.
 fn group_planes(
-    corners: &[[Vec3A; 3]],
+    planes: &[Option<(Plane, f64)>],
     materials: &[MaterialId],
     scale: f64,
 ) -> (Vec<u32>, Vec<SurfaceGroup>) {
     const NORMAL_STEP: f64 = 1e-5;
     let offset_step = scale * 1e-6;
-    let planes: Vec<Option<(Plane, f64)>> = corners.par_iter().map(triangle_plane).collect();
     let mut index: HashMap<(i64, i64, i64, i64, MaterialId), u32> = HashMap::new();
     let mut groups: Vec<SurfaceGroup> = Vec::new();
     let mut best_area: Vec<f64> = Vec::new();
@@ -243,8 +256,7 @@ fn group_planes(
 
 /// The plane of a triangle with its normal's sign made canonical (first
 /// non-zero component positive), and its area; `None` for zero area.
-fn triangle_plane(t: &[Vec3A; 3]) -> Option<(Plane, f64)> {
-    let [a, b, c] = t.map(|p| DVec3::from(glam::Vec3::from(p)));
+fn triangle_plane(&[a, b, c]: &[DVec3; 3]) -> Option<(Plane, f64)> {
     let n = (b - a).cross(c - a);
     let len = n.length();
     if len <= 0.0 || !len.is_finite() {
@@ -308,7 +320,7 @@ mod tests {
 
     #[test]
     fn zero_area_triangles_have_no_group() {
-        let t = [Vec3A::ZERO, Vec3A::X, Vec3A::X * 2.0];
+        let t = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
         assert!(triangle_plane(&t).is_none());
     }
 }
