@@ -8,7 +8,10 @@
 //!   secondary frusta;
 //! - [`beams`]: the traced frusta of one source, answering any listeners;
 //! - [`path`]: event sequences, image sources and exact validation;
-//! - [`reference`]: the exhaustive image-source solver;
+//! - [`reference`]: the exhaustive image-source solver, fast, sharing the
+//!   tracer's validation;
+//! - [`brute_force`]: the independent reference, sharing nothing with the
+//!   tracer: what accuracy is measured against;
 //! - [`scene`]: [`AcousticScene`], what propagation reads of a scene;
 //! - [`propagation`]: paths with per-band gains, impulse responses and room
 //!   parameters for sources and listeners;
@@ -16,6 +19,7 @@
 //!   files and auralization.
 
 pub mod beams;
+pub mod brute_force;
 mod cache;
 mod classify;
 mod cull;
