@@ -5,25 +5,27 @@ Reads a JSON job on stdin, writes a JSON result on stdout (nothing else goes
 to stdout; library chatter is sent to stderr).
 
 Job:
-    {"rooms": [{"name": "shoebox-192",
-                "triangles": [[[x,y,z],[x,y,z],[x,y,z]], ...],
-                "absorption": 0.1,
+    {"rooms": [{"name": "shoebox",
+                "walls": [{"corners": [[x,y,z], ...], "absorption": 0.1}, ...],
                 "source": [x,y,z], "listener": [x,y,z],
                 "max_order": 4}]}
 
-Triangles are counter-clockwise seen from inside the room (normals point into
-the air), metres, z up. Every triangle becomes one pyroomacoustics wall.
+Each wall is one planar polygon (three or more corners, convex or not),
+counter-clockwise seen from inside the room (its normal points into the air),
+metres, z up. `absorption` is the wall's energy absorption (all bands).
 
 Result:
     {"rooms": [{"name", "seconds", "timed", "setup_seconds", "paths",
                 "paths_by_order", "image_sources", "distances_m",
                 "duplicates", "duplicate_tol_m", "distinct_positions",
                 "duplicates_1e-6m", "duplicates_1mm", "orders",
-                "walls", "max_order", "version"} | {"name", "error"}, ...]}
+                "walls", "obstructing_walls", "threads", "max_order",
+                "version"} | {"name", "error"}, ...]}
 
-`python pyroom_ism.py --selftest [--max-order N] [--split K] [--full]` builds a
-10 x 6 x 3 m box whose 6 faces are each split into K x K cells of 2 triangles
-(K=4: 192 triangles, K=1: 12), runs it and prints the result.
+`python pyroom_ism.py --selftest [--max-order N] [--split K] [--faces] [--full]`
+builds a 10 x 6 x 3 m box whose 6 faces are each split into K x K cells of 2
+triangles (K=4: 192 triangles, K=1: 12), one wall per triangle, or with
+--faces one rectangle per face (6 walls), runs it and prints the result.
 """
 
 import argparse
@@ -34,6 +36,10 @@ import sys
 import time
 
 import numpy as np
+
+# libroom's Room::image_source_model is a plain recursive C++ search: no
+# thread pool, no OpenMP.
+THREADS = 1
 
 TIMED = (
     "Room.image_source_model() only (single-threaded): the C++ depth-first image-source "
@@ -89,10 +95,6 @@ def count_duplicates(points, tol):
 
 def run_room(room_job, pra):
     name = room_job.get("name", "")
-    tris = np.asarray(room_job["triangles"], dtype=np.float64)
-    if tris.ndim != 3 or tris.shape[1:] != (3, 3):
-        raise ValueError("triangles must be a list of [[x,y,z],[x,y,z],[x,y,z]]")
-    absorption = float(room_job["absorption"])
     source = np.asarray(room_job["source"], dtype=np.float64)
     listener = np.asarray(room_job["listener"], dtype=np.float64)
     max_order = int(room_job["max_order"])
@@ -100,17 +102,21 @@ def run_room(room_job, pra):
     t_setup = time.perf_counter()
     walls = []
     bad_normals = 0
-    for k, t in enumerate(tris):
-        our_n = np.cross(t[1] - t[0], t[2] - t[0])  # points into the room
+    for k, wall in enumerate(room_job["walls"]):
+        c = np.asarray(wall["corners"], dtype=np.float64)
+        if c.ndim != 2 or c.shape[1] != 3 or len(c) < 3:
+            raise ValueError(f"wall {k}: corners must be three or more [x,y,z]")
+        # Newell's normal: right for non-convex polygons too; points into the room.
+        our_n = np.cross(c, np.roll(c, -1, axis=0)).sum(axis=0)
         nn = np.linalg.norm(our_n)
         if nn == 0.0:
-            raise ValueError(f"triangle {k} is degenerate")
+            raise ValueError(f"wall {k} has no area")
         # pyroomacoustics wants corners counter-clockwise around an OUTWARD
         # normal (Wall::reflect only mirrors sources lying on the normal's
         # negative side), so reverse our inward-facing winding.
-        corners = np.ascontiguousarray(np.stack([t[0], t[2], t[1]], axis=1))
+        corners = np.ascontiguousarray(c[::-1].T)
         w = pra.wall_factory(
-            corners, np.array([absorption]), np.array([0.0]), name=f"t{k}"
+            corners, np.array([float(wall["absorption"])]), np.array([0.0]), name=f"w{k}"
         )
         if np.dot(np.asarray(w.normal, dtype=np.float64), our_n / nn) > -0.999:
             bad_normals += 1
@@ -121,6 +127,10 @@ def run_room(room_job, pra):
             "expects (winding convention changed?)"
         )
 
+    # A Room built from walls (not a ShoeBox) handles non-convex rooms by
+    # itself: Room._init_room_engine passes find_non_convex_walls(walls),
+    # the walls off the convex hull, to libroom, which tests every image
+    # source's legs against them (Room::is_obstructed_dfs).
     room = pra.Room(
         walls,
         fs=16000,
@@ -131,6 +141,7 @@ def run_room(room_job, pra):
     )
     room.add_source(source)
     room.add_microphone(listener)
+    obstructing = list(getattr(room.room_engine, "obstructing_walls", []))
     setup_seconds = time.perf_counter() - t_setup
 
     t0 = time.perf_counter()
@@ -163,6 +174,8 @@ def run_room(room_job, pra):
         "timed": TIMED,
         "setup_seconds": setup_seconds,
         "walls": len(walls),
+        "obstructing_walls": len(obstructing),
+        "threads": THREADS,
         "max_order": max_order,
         "paths": int(len(images)),
         "paths_by_order": by_order,
@@ -227,14 +240,30 @@ def box_triangles(size=(10.0, 6.0, 3.0), split=4):
     return tris.tolist()
 
 
+def box_faces(size=(10.0, 6.0, 3.0)):
+    """The same box as one rectangle per face, counter-clockwise seen from
+    inside: each face's first triangle p00, p10, p11 plus p01."""
+    faces = []
+    for p00, p10, p11 in np.asarray(box_triangles(size, split=1))[::2]:
+        faces.append({"corners": [p00, p10, p11, p00 + p11 - p10]})
+    return [{"corners": np.asarray(f["corners"]).tolist()} for f in faces]
+
+
 def selftest(args):
     split = args.split
+    if args.faces:
+        walls = box_faces()
+        name = "shoebox-6-faces"
+    else:
+        walls = [{"corners": t} for t in box_triangles(split=split)]
+        name = f"shoebox-{12 * split * split}"
+    for w in walls:
+        w["absorption"] = 0.1
     job = {
         "rooms": [
             {
-                "name": f"shoebox-{12 * split * split}",
-                "triangles": box_triangles(split=split),
-                "absorption": 0.1,
+                "name": name,
+                "walls": walls,
                 "source": args.source,
                 "listener": args.listener,
                 "max_order": args.max_order,
@@ -270,6 +299,7 @@ def main():
     ap.add_argument("--split", type=int, default=4, help="cells per face edge (4: 192 triangles)")
     ap.add_argument("--source", type=float, nargs=3, default=[2.0, 3.0, 1.5])
     ap.add_argument("--listener", type=float, nargs=3, default=[7.3, 4.1, 1.7])
+    ap.add_argument("--faces", action="store_true", help="selftest: one rectangle per face")
     ap.add_argument("--full", action="store_true", help="selftest: include image sources")
     args = ap.parse_args()
     if args.selftest:

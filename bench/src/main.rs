@@ -4,7 +4,8 @@
 //! compares our BVH with peer libraries on the same mesh and rays, in
 //! interleaved rounds (see `bvh_bench`). Further
 //! `frusta-bench propagation [--json] [--quick] [--plot FILE.png]` sweeps
-//! frustum tracing against the image-source reference (see `propagation`),
+//! frustum tracing against the independent reference, with pyroomacoustics
+//! as a peer (see `propagation`),
 //! and `frusta-bench serve [--json] [--quick] [--url URL]` loads the service
 //! with impulse-response requests and a WebSocket stream (see `serve`).
 
@@ -32,8 +33,8 @@ enum Command {
     /// BVH build, refit and trace: ours vs bvh, obvhs, parry3d (and Embree
     /// with the `embree` feature).
     Bvh(bvh_bench::cli::Args),
-    /// Specular paths by frustum tracing vs the exact image-source
-    /// reference over sampling N and order (pyroomacoustics as a peer).
+    /// Specular paths by frustum tracing vs the independent reference over
+    /// sampling N, order and cell mode (pyroomacoustics as a peer).
     Propagation(propagation::Args),
     /// The service under load: concurrent impulse-response requests, then
     /// a closed-loop WebSocket stream (listener moving, then source).

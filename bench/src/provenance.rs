@@ -4,9 +4,9 @@
 use std::path::Path;
 use std::process::Command;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Machine {
     /// `model name` from `/proc/cpuinfo`.
     pub cpu: String,
@@ -19,7 +19,7 @@ pub struct Machine {
     pub load_average: [f64; 2],
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Provenance {
     pub command: String,
     /// `git rev-parse HEAD` of the workspace.

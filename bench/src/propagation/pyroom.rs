@@ -1,20 +1,24 @@
 //! The pyroomacoustics peer: `bench/peers/setup.sh` once, then one JSON job
 //! on the stdin of `bench/peers/pyroom_ism.py` (see `bench/peers/README.md`).
+//! Its image-source model is libroom's single-threaded C++ (no thread pool
+//! in `Room::image_source_model`), so its rows say 1 thread.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-use frusta_engine::scene::Scene;
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use serde_json::{json, Value};
 
-/// One room at one order.
+use super::walls::Wall;
+
+/// One room at one order, in one of the two inputs.
 pub struct Job {
     pub scene: &'static str,
+    /// `pyroomacoustics` (polygon walls) or `pyroomacoustics-triangles`.
+    pub imp: &'static str,
     pub order: u32,
-    pub triangles: Vec<[[f32; 3]; 3]>,
-    pub absorption: f32,
+    pub walls: Vec<Wall>,
     pub source: DVec3,
     pub listener: DVec3,
 }
@@ -22,48 +26,18 @@ pub struct Job {
 /// The peer's answer for one job.
 pub struct Outcome {
     pub scene: &'static str,
+    pub imp: &'static str,
     pub order: u32,
     pub walls: usize,
     pub ms: f64,
     pub paths: usize,
     pub duplicates: usize,
+    /// The visible image sources, the direct path's (the source) included.
+    pub image_sources: Vec<DVec3>,
 }
 
 fn peers_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("peers")
-}
-
-/// One wall per world triangle, and the area-weighted mean absorption of
-/// the 1 kHz band (pyroomacoustics takes one value per room here).
-pub fn walls(scene: &Scene) -> (Vec<[[f32; 3]; 3]>, f32) {
-    const BAND_1K: usize = 4;
-    let mut tris = Vec::new();
-    let (mut area_sum, mut weighted) = (0.0f64, 0.0f64);
-    for o in &scene.objects {
-        let pos: Vec<Vec3> = o
-            .mesh
-            .positions()
-            .iter()
-            .map(|&p| Vec3::from(o.transform.transform_point(p.into())))
-            .collect();
-        for (t, &m) in o.mesh.triangles().iter().zip(&o.materials) {
-            let [a, b, c] = t.map(|i| pos[i as usize]);
-            let area = f64::from(0.5 * (b - a).cross(c - a).length());
-            let alpha = scene
-                .materials
-                .get(m as usize)
-                .map_or(0.0, |m| m.absorption[BAND_1K]);
-            area_sum += area;
-            weighted += area * f64::from(alpha);
-            tris.push([a.to_array(), b.to_array(), c.to_array()]);
-        }
-    }
-    let mean = if area_sum > 0.0 {
-        weighted / area_sum
-    } else {
-        0.0
-    };
-    (tris, mean as f32)
 }
 
 /// Runs the setup script, then all jobs in one Python process. An error
@@ -86,9 +60,11 @@ pub fn run(jobs: &[Job]) -> Result<Vec<Outcome>, String> {
         .iter()
         .map(|j| {
             json!({
-                "name": format!("{}-o{}", j.scene, j.order),
-                "triangles": j.triangles,
-                "absorption": j.absorption,
+                "name": format!("{}-{}-o{}", j.imp, j.scene, j.order),
+                "walls": j.walls.iter().map(|w| json!({
+                    "corners": w.corners.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+                    "absorption": w.absorption,
+                })).collect::<Vec<_>>(),
                 "source": j.source.to_array(),
                 "listener": j.listener.to_array(),
                 "max_order": j.order,
@@ -123,20 +99,28 @@ pub fn run(jobs: &[Job]) -> Result<Vec<Outcome>, String> {
     let mut outcomes = Vec::new();
     for (j, r) in jobs.iter().zip(rooms) {
         if let Some(e) = r.get("error") {
-            eprintln!(
-                "warning: pyroomacoustics on {} order {}: {e}",
-                j.scene, j.order
-            );
+            eprintln!("warning: {} on {} order {}: {e}", j.imp, j.scene, j.order);
             continue;
         }
         let num = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+        let image_sources = r["image_sources"]
+            .as_array()
+            .ok_or("pyroom_ism.py output has no image_sources")?
+            .iter()
+            .map(|p| {
+                let c = |i: usize| p[i].as_f64().unwrap_or(f64::NAN);
+                DVec3::new(c(0), c(1), c(2))
+            })
+            .collect();
         outcomes.push(Outcome {
             scene: j.scene,
+            imp: j.imp,
             order: j.order,
             walls: num("walls") as usize,
             ms: num("seconds") * 1e3,
             paths: num("paths") as usize,
             duplicates: num("duplicates") as usize,
+            image_sources,
         });
     }
     Ok(outcomes)
