@@ -422,6 +422,21 @@ mod tests {
     use super::*;
 
     #[test]
+    fn unknown_fields_at_every_level_are_errors_naming_them() {
+        for (json, field) in [
+            (r#"{"max_ordr": 3}"#, "max_ordr"),
+            (r#"{"air": {"humidity_percent": 200}}"#, "humidity_percent"),
+            (
+                r#"{"listener_frame": {"forward": [1, 0, 0], "up": [0, 0, 1], "left": [0, 1, 0]}}"#,
+                "left",
+            ),
+        ] {
+            let e = serde_json::from_str::<SimulationOptions>(json).unwrap_err();
+            assert!(e.to_string().contains(field), "{e}");
+        }
+    }
+
+    #[test]
     fn every_out_of_range_option_is_an_error_naming_it() {
         let bad = [
             (

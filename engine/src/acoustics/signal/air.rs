@@ -22,7 +22,7 @@ const ZERO_CELSIUS_K: f64 = 273.15;
 
 /// The state of the air sound travels through.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct AirConditions {
     pub temperature_c: f64,
     pub relative_humidity_percent: f64,

@@ -33,6 +33,7 @@ const FAR_EAR_SHADOW_DB: Bands = [0.0, 0.5, 1.5, 3.0, 6.0, 10.0, 14.0, 18.0];
 
 /// How the listener's head is oriented in the world (scenes are z-up).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ListenerFrame {
     /// Where the nose points.
     pub forward: Vec3,
