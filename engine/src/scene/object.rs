@@ -30,6 +30,9 @@ impl Scene {
     /// A scene of one object whose every triangle has `material`: for
     /// generated rooms and quick studies.
     pub fn single_object(name: &str, mesh: RawMesh, material: Material) -> Result<Self> {
+        if name.is_empty() {
+            return Err(Error::InvalidScene("an object has an empty name".into()));
+        }
         let mesh =
             TriangleMesh::new(mesh.positions, mesh.triangles).map_err(|e| e.in_object(name))?;
         Ok(Self {

@@ -2,6 +2,7 @@
 //! ordered `materials` object, and the number-or-array material and the
 //! several mesh forms, each with a message saying what was expected.
 
+use std::collections::HashSet;
 use std::fmt;
 
 use serde::de::{self, MapAccess, Visitor};
@@ -27,8 +28,11 @@ pub(super) fn ordered_materials<'de, D: Deserializer<'de>>(
             mut map: A,
         ) -> std::result::Result<Self::Value, A::Error> {
             let mut out: Self::Value = Vec::new();
+            // A set, not a scan of `out`: documents may declare tens of
+            // thousands of materials.
+            let mut seen = HashSet::new();
             while let Some((name, spec)) = map.next_entry::<String, MaterialSpec>()? {
-                if out.iter().any(|(n, _)| *n == name) {
+                if !seen.insert(name.clone()) {
                     return Err(de::Error::custom(format!(
                         "material {name:?} is declared twice"
                     )));

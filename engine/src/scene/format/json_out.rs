@@ -12,8 +12,9 @@ impl Scene {
     /// material spelt out), which [`Scene::from_json_str`] reads back to an
     /// equal scene. Material names must be unique.
     pub fn to_json(&self) -> Result<String> {
-        for (i, m) in self.materials.iter().enumerate() {
-            if self.materials[..i].iter().any(|o| o.name == m.name) {
+        let mut names = std::collections::HashSet::new();
+        for m in &self.materials {
+            if !names.insert(m.name.as_str()) {
                 return Err(Error::InvalidScene(format!(
                     "material name {:?} is used twice",
                     m.name

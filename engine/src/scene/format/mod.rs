@@ -111,11 +111,12 @@ impl SceneDocument {
             table.declare(name, spec)?;
         }
         let mut objects: Vec<SceneObject> = Vec::with_capacity(self.objects.len());
+        let mut names = std::collections::HashSet::new();
         for spec in &self.objects {
             if spec.name.is_empty() {
                 return Err(Error::InvalidScene("an object has an empty name".into()));
             }
-            if objects.iter().any(|o| o.name == spec.name) {
+            if !names.insert(spec.name.as_str()) {
                 return Err(Error::DuplicateObject(spec.name.clone()));
             }
             let object =
