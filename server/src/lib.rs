@@ -75,8 +75,11 @@ fn add_bundled(registry: &Registry, dir: &Path) {
         let added = Scene::load(&path)
             .map_err(|e| e.to_string())
             .and_then(|scene| {
-                registry
-                    .create(id.to_owned(), meta, scene)
+                // Bundled scenes are the operator's: no triangle budget.
+                let reservation =
+                    registry.reserve(Some(id.to_owned()), id, scene.triangle_count(), usize::MAX);
+                reservation
+                    .and_then(|r| registry.create(r, meta, scene))
                     .map_err(|e| e.to_string())
             });
         if let Err(e) = added {

@@ -2,8 +2,8 @@
 //! acoustic hierarchy) and in the [`Store`], edited under one write lock
 //! so that what is stored and what is served never diverge.
 
-use std::collections::BTreeMap;
-use std::sync::{Arc, RwLock, RwLockReadGuard, RwLockWriteGuard};
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use frusta_engine::acoustics::AcousticScene;
@@ -25,6 +25,10 @@ pub struct LiveScene {
     /// state of the scene an answer belongs to.
     pub revision: u64,
     pub build_ms: f64,
+    /// Set by [`Registry::delete`] under the write lock: an edit that
+    /// looked the scene up before the delete finds it here and fails,
+    /// instead of writing the scene back into the store.
+    deleted: bool,
 }
 
 pub struct SceneEntry {
@@ -79,6 +83,37 @@ pub struct ObjectEdit {
 pub struct Registry {
     scenes: RwLock<BTreeMap<String, Arc<SceneEntry>>>,
     store: Store,
+    budget: Mutex<Budget>,
+    /// Test hook run once right after an upload's reservation: lets a test
+    /// send a competing request at exactly that point.
+    #[cfg(test)]
+    pub(crate) after_reserve: Mutex<Option<Box<dyn FnOnce() + Send>>>,
+}
+
+/// Triangles served and reserved, and the ids of uploads in flight: one
+/// lock, so checking a limit or an id and claiming it are one step. It is
+/// taken before the scene map's lock, never while holding it.
+#[derive(Default)]
+struct Budget {
+    served: usize,
+    reserved: usize,
+    ids: HashSet<String>,
+}
+
+/// An upload's claim on its id and triangles, from its checks until its
+/// scene is served (or it fails); dropping it releases the claim.
+pub struct Reservation<'a> {
+    registry: &'a Registry,
+    pub id: String,
+    triangles: usize,
+}
+
+impl Drop for Reservation<'_> {
+    fn drop(&mut self) {
+        let mut budget = self.registry.budget();
+        budget.ids.remove(&self.id);
+        budget.reserved -= self.triangles;
+    }
 }
 
 impl Registry {
@@ -89,6 +124,9 @@ impl Registry {
         let registry = Self {
             scenes: RwLock::new(BTreeMap::new()),
             store,
+            budget: Mutex::default(),
+            #[cfg(test)]
+            after_reserve: Mutex::default(),
         };
         for s in stored {
             let id = s.id.clone();
@@ -118,19 +156,78 @@ impl Registry {
         scenes.values().cloned().collect()
     }
 
+    /// Triangles of the scenes served (edits keep triangle counts).
     pub fn total_triangles(&self) -> usize {
-        self.list()
-            .iter()
-            .map(|e| e.read().scene.triangle_count())
-            .sum()
+        self.budget().served
     }
 
-    /// Stores and serves a new scene. Blocking (builds and fsyncs).
-    pub fn create(&self, id: String, meta: SceneMeta, scene: Scene) -> Result<(), ApiError> {
-        if self.get(&id).is_ok() {
-            return Err(ApiError::SceneExists(id));
+    fn budget(&self) -> std::sync::MutexGuard<'_, Budget> {
+        self.budget.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Claims an id and `triangles` of the `max_total` budget for an
+    /// upload: `id`, or with `id: None` the first free of `slug`,
+    /// `slug-2`, ... Fails if the id is served or claimed, or if the
+    /// triangles served and claimed would exceed the budget.
+    pub fn reserve(
+        &self,
+        id: Option<String>,
+        slug: &str,
+        triangles: usize,
+        max_total: usize,
+    ) -> Result<Reservation<'_>, ApiError> {
+        let mut budget = self.budget();
+        let taken = |id: &str| budget.ids.contains(id) || self.get(id).is_ok();
+        let id = match id {
+            Some(id) if taken(&id) => return Err(ApiError::SceneExists(id)),
+            Some(id) => id,
+            None => (1..)
+                .map(|n| match n {
+                    1 => slug.to_owned(),
+                    n => format!("{slug}-{n}"),
+                })
+                .find(|id| !taken(id))
+                .unwrap_or_else(|| slug.to_owned()),
+        };
+        let held = budget.served + budget.reserved;
+        if held.saturating_add(triangles) > max_total {
+            return Err(ApiError::ServerFull(format!(
+                "the server holds {held} triangles and takes at most {max_total} in all; delete a scene first"
+            )));
         }
-        let document = scene.to_json().map_err(ApiError::from_engine)?;
+        budget.ids.insert(id.clone());
+        budget.reserved += triangles;
+        drop(budget);
+        #[cfg(test)]
+        {
+            // Taken before it runs: the hook may upload (and so reserve) too.
+            let hook = self
+                .after_reserve
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .take();
+            if let Some(hook) = hook {
+                hook();
+            }
+        }
+        Ok(Reservation {
+            registry: self,
+            id,
+            triangles,
+        })
+    }
+
+    /// Stores and serves a new scene under its reservation. Blocking
+    /// (builds and fsyncs). What is stored is first read back as a
+    /// restart reads it, so nothing is acknowledged that would not load.
+    pub fn create(
+        &self,
+        reservation: Reservation<'_>,
+        meta: SceneMeta,
+        scene: Scene,
+    ) -> Result<(), ApiError> {
+        let document = reloadable(&scene)?;
+        let id = reservation.id.clone();
         self.store
             .put_scene(&id, &meta, &document)
             .map_err(ApiError::storage)?;
@@ -151,9 +248,17 @@ impl Registry {
                 acoustic,
                 revision: 0,
                 build_ms,
+                deleted: false,
             }),
             revisions: watch::Sender::new(Some(0)),
         };
+        let triangles = entry.read().scene.triangle_count();
+        // Locks in the order budget, then scenes, as `reserve` takes them.
+        // Until the upload's reservation is dropped its triangles count
+        // twice: a moment in which a competing upload may be refused,
+        // never one in which the budget can be exceeded.
+        let mut budget = self.budget();
+        budget.served += triangles;
         let mut scenes = self.scenes.write().unwrap_or_else(|e| e.into_inner());
         scenes.insert(id, Arc::new(entry));
     }
@@ -161,12 +266,17 @@ impl Registry {
     pub fn delete(&self, id: &str) -> Result<(), ApiError> {
         let entry = self.get(id)?;
         // Hold the scene's lock so no edit lands between the two steps.
-        let _live = entry.write();
+        let mut live = entry.write();
+        if live.deleted {
+            return Err(ApiError::SceneNotFound(id.to_owned()));
+        }
         self.store.delete_scene(id).map_err(ApiError::storage)?;
+        live.deleted = true;
         self.scenes
             .write()
             .unwrap_or_else(|e| e.into_inner())
             .remove(id);
+        self.budget().served -= live.scene.triangle_count();
         entry.revisions.send_replace(None);
         Ok(())
     }
@@ -182,6 +292,9 @@ impl Registry {
     ) -> Result<EditReport, ApiError> {
         let start = Instant::now();
         let mut live = entry.write();
+        if live.deleted {
+            return Err(ApiError::SceneNotFound(entry.id.clone()));
+        }
         let Some(current) = live.scene.objects.get(object) else {
             return Err(ApiError::UnknownObject(format!(
                 "#{object} (the scene has {})",
@@ -262,14 +375,26 @@ impl Registry {
         materials: Vec<Material>,
     ) -> Result<u64, ApiError> {
         let mut live = entry.write();
+        if live.deleted {
+            return Err(ApiError::SceneNotFound(entry.id.clone()));
+        }
         let mut scene = live.scene.clone();
+        let mut index: HashMap<String, usize> = scene
+            .materials
+            .iter()
+            .enumerate()
+            .map(|(i, m)| (m.name.clone(), i))
+            .collect();
         for m in materials {
-            match scene.materials.iter_mut().find(|old| old.name == m.name) {
-                Some(old) => *old = m,
-                None => scene.materials.push(m),
+            match index.get(&m.name) {
+                Some(&i) => scene.materials[i] = m,
+                None => {
+                    index.insert(m.name.clone(), scene.materials.len());
+                    scene.materials.push(m);
+                }
             }
         }
-        let document = scene.to_json().map_err(ApiError::from_engine)?;
+        let document = reloadable(&scene)?;
         self.store
             .put_scene(&entry.id, &entry.meta, &document)
             .map_err(ApiError::storage)?;
@@ -277,6 +402,19 @@ impl Registry {
         live.scene = scene;
         Ok(entry.bump(&mut live))
     }
+}
+
+/// The scene's stored document, once it has been read back the way a
+/// restart reads it: a write that would not reload is refused, not
+/// acknowledged and lost at the next start.
+fn reloadable(scene: &Scene) -> Result<String, ApiError> {
+    let document = scene.to_json().map_err(ApiError::from_engine)?;
+    Scene::from_json_str(&document, None).map_err(|e| {
+        ApiError::Invalid(format!(
+            "the scene would not load after a restart, so it is not stored: {e}"
+        ))
+    })?;
+    Ok(document)
 }
 
 /// A stored scene with its overlays applied.
@@ -299,4 +437,128 @@ pub fn now_unix_ms() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_millis() as u64)
+}
+
+#[cfg(test)]
+mod tests {
+    use axum::body::Body;
+    use axum::http::{Request, StatusCode};
+    use tower::ServiceExt;
+
+    use crate::routes::test_support::*;
+    use crate::{router, AppState};
+
+    /// Materials named `prefix0`, `prefix1`, ... as a PATCH body.
+    fn materials(prefix: &str, count: usize) -> String {
+        let entries: Vec<String> = (0..count)
+            .map(|i| format!(r#""{prefix}{i}": {{"absorption": 0.1}}"#))
+            .collect();
+        format!(r#"{{"materials": {{{}}}}}"#, entries.join(", "))
+    }
+
+    fn ids(server: &TestServer) -> Vec<String> {
+        let scenes = server.state.registry().list();
+        scenes.iter().map(|e| e.id.clone()).collect()
+    }
+
+    #[tokio::test]
+    async fn a_write_that_would_not_reload_is_refused_and_nothing_is_lost() {
+        let server = TestServer::new();
+        // An OBJ with an empty object name used to answer 201 and vanish
+        // at the next start.
+        let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        let request = Request::post("/v1/scenes?id=tri&object=")
+            .header("content-type", "model/obj")
+            .body(Body::from(obj))
+            .unwrap();
+        let (status, _, problem) = server.send(request).await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{problem}");
+        assert!(!ids(&server).contains(&"tri".to_owned()));
+        // Material edits past the material-id range used to answer 200 and
+        // lose the scene at the next start.
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let uri = "/v1/scenes/box/materials";
+        let (status, _, body) = server.send(patch_json(uri, &materials("a", 40_000))).await;
+        assert_eq!(status, StatusCode::OK, "{body}");
+        let (status, _, problem) = server.send(patch_json(uri, &materials("b", 40_000))).await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{problem}");
+        assert!(
+            problem["detail"].as_str().unwrap().contains("restart"),
+            "{problem}"
+        );
+        let server = server.restart();
+        let entry = server.state.registry().get("box").expect("reloaded");
+        assert_eq!(entry.read().scene.materials.len(), 40_001);
+    }
+
+    #[tokio::test]
+    async fn an_edit_that_loses_the_race_with_a_delete_does_not_bring_the_scene_back() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let registry = server.state.registry();
+        // The edit looked the scene up before the delete ran.
+        let entry = registry.get("box").unwrap();
+        registry.delete("box").unwrap();
+        let material = frusta_engine::scene::Material::uniform("walls", 0.5).unwrap();
+        let e = registry.edit_materials(&entry, vec![material]);
+        assert!(matches!(e, Err(crate::error::ApiError::SceneNotFound(_))));
+        let edit = super::ObjectEdit {
+            translation: Some([0.0, 0.5, 0.0]),
+            ..Default::default()
+        };
+        let e = registry.edit_object(&entry, 1, &edit);
+        assert!(matches!(e, Err(crate::error::ApiError::SceneNotFound(_))));
+        let server = server.restart();
+        assert!(server.state.registry().get("box").is_err());
+    }
+
+    /// Sets a hook that, when an upload has made its reservation, sends
+    /// `second` and records its status.
+    fn at_reservation(
+        state: &AppState,
+        second: Request<Body>,
+    ) -> std::sync::mpsc::Receiver<StatusCode> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let handle = tokio::runtime::Handle::current();
+        let app = router(state.clone());
+        let hook = move || {
+            let response = handle.block_on(app.oneshot(second)).unwrap();
+            tx.send(response.status()).unwrap();
+        };
+        *state.registry().after_reserve.lock().unwrap() = Some(Box::new(hook));
+        rx
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn two_uploads_of_one_id_cannot_both_succeed() {
+        let server = TestServer::new();
+        let second = at_reservation(&server.state, post_json("/v1/scenes?id=twin", BOX_DOC));
+        let (status, _, body) = server.send(post_json("/v1/scenes?id=twin", BOX_DOC)).await;
+        assert_eq!(status, StatusCode::CREATED, "{body}");
+        assert_eq!(second.recv().unwrap(), StatusCode::CONFLICT);
+        // Automatic ids are reserved too.
+        let doc = BOX_DOC.replacen('{', r#"{"name": "Auto", "#, 1);
+        let second = at_reservation(&server.state, post_json("/v1/scenes", &doc));
+        let (_, _, first) = server.send(post_json("/v1/scenes", &doc)).await;
+        assert_eq!(second.recv().unwrap(), StatusCode::CREATED);
+        assert_eq!(first["id"], "auto");
+        let mut all = ids(&server);
+        all.sort();
+        assert_eq!(all, ["auto", "auto-2", "shoebox", "twin"]);
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn concurrent_uploads_cannot_exceed_the_triangle_budget() {
+        // The shoebox (12) and one 14-triangle upload fit, two do not.
+        let server = TestServer::with(|c| c.limits.max_total_triangles = 12 + 14 + 10);
+        let second = at_reservation(&server.state, post_json("/v1/scenes?id=b", BOX_DOC));
+        let (status, _, body) = server.send(post_json("/v1/scenes?id=a", BOX_DOC)).await;
+        assert_eq!(status, StatusCode::CREATED, "{body}");
+        assert_eq!(second.recv().unwrap(), StatusCode::INSUFFICIENT_STORAGE);
+        assert_eq!(server.state.registry().total_triangles(), 26);
+        // Deleting gives the triangles back.
+        server.send(delete("/v1/scenes/a")).await;
+        let (status, _, _) = server.send(post_json("/v1/scenes?id=b", BOX_DOC)).await;
+        assert_eq!(status, StatusCode::CREATED);
+    }
 }

@@ -45,13 +45,15 @@ pub async fn patch(
             ))
         }
     };
-    // The scene format resolves library names and checks coefficients.
-    let document = serde_json::json!({ "materials": materials, "objects": [] }).to_string();
-    let parsed = Scene::from_json_str(&document, None).map_err(ApiError::from_engine)?;
     let job_state = state.clone();
     let edited = state
         .compute()
         .run(move || {
+            // The scene format resolves library names and checks
+            // coefficients; on the compute pool, since a large edit takes
+            // a while and the async runtime must stay free.
+            let document = serde_json::json!({ "materials": materials, "objects": [] }).to_string();
+            let parsed = Scene::from_json_str(&document, None).map_err(ApiError::from_engine)?;
             let revision = job_state
                 .registry()
                 .edit_materials(&entry, parsed.materials)?;

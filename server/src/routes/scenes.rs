@@ -193,23 +193,16 @@ pub async fn create(
                 return Err(too_many_triangles(triangles as u64, limits.max_triangles));
             }
             let registry = job_state.registry();
-            let total = registry.total_triangles();
-            if total + triangles > limits.max_total_triangles {
-                return Err(ApiError::ServerFull(format!(
-                    "the server holds {total} triangles and takes at most {} in all; delete a scene first",
-                    limits.max_total_triangles
-                )));
-            }
-            let id = match query.id {
-                Some(id) => id,
-                None => free_id(&job_state, &scene_name(&bytes, &content_type)),
-            };
+            let slug = slug(&scene_name(&bytes, &content_type));
+            let reservation =
+                registry.reserve(query.id, &slug, triangles, limits.max_total_triangles)?;
+            let id = reservation.id.clone();
             let meta = SceneMeta {
                 owner: caller.key.clone(),
                 created_unix_ms: now_unix_ms(),
                 bundled: false,
             };
-            registry.create(id.clone(), meta, scene)?;
+            registry.create(reservation, meta, scene)?;
             Ok(SceneSummary::new(registry.get(&id)?.as_ref()))
         })
         .await??;
@@ -309,8 +302,9 @@ fn scene_name(bytes: &[u8], content_type: &str) -> String {
     name.unwrap_or_else(|| "scene".into())
 }
 
-/// A slug of `name` not yet taken: `my-room`, `my-room-2`, ...
-fn free_id(state: &AppState, name: &str) -> String {
+/// `name` as an id: lower-case letters, digits and single dashes, at most
+/// 48 characters (the registry appends `-2`, `-3`, ... while it is taken).
+fn slug(name: &str) -> String {
     let mut slug: String = name
         .chars()
         .map(|c| {
@@ -329,16 +323,7 @@ fn free_id(state: &AppState, name: &str) -> String {
     if slug.is_empty() {
         slug = "scene".into();
     }
-    (1..)
-        .map(|n| {
-            if n == 1 {
-                slug.clone()
-            } else {
-                format!("{slug}-{n}")
-            }
-        })
-        .find(|id| state.registry().get(id).is_err())
-        .unwrap_or(slug)
+    slug
 }
 
 /// Deletes a scene and its stored edits; open streams on it close.

@@ -26,6 +26,7 @@ pub const BOX_DOC: &str = r#"{
 pub struct TestServer {
     pub state: AppState,
     dir: PathBuf,
+    config: Config,
 }
 
 impl TestServer {
@@ -49,7 +50,18 @@ impl TestServer {
         config.scenes_dir = scenes;
         tweak(&mut config);
         let state = open(&config).expect("open");
-        Self { state, dir }
+        Self { state, dir, config }
+    }
+
+    /// The server stopped and started again on the same data directory,
+    /// as after a restart: only what was stored comes back.
+    pub fn restart(mut self) -> Self {
+        let dir = std::mem::take(&mut self.dir);
+        let config = self.config.clone();
+        // One open database per file: the old state closes first.
+        drop(self);
+        let state = open(&config).expect("reopen");
+        Self { state, dir, config }
     }
 
     /// Sends one request; returns status, content type and JSON body
@@ -89,7 +101,9 @@ impl TestServer {
 
 impl Drop for TestServer {
     fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
+        if !self.dir.as_os_str().is_empty() {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
     }
 }
 
