@@ -206,6 +206,7 @@ pub fn router(state: AppState) -> Router {
         .route_layer(from_fn_with_state(state.clone(), metrics::track))
         .layer(from_fn_with_state(state.clone(), request_timeout))
         .fallback(|uri: Uri| async move { ApiError::RouteNotFound(uri.path().to_owned()) })
+        .layer(axum::middleware::from_fn(crate::error::problem_documents))
         .with_state(state)
 }
 

@@ -4,8 +4,9 @@
 //! rejections.
 
 use axum::extract::rejection::JsonRejection;
-use axum::extract::FromRequest;
+use axum::extract::{FromRequest, Request};
 use axum::http::{header, HeaderValue, StatusCode};
+use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 
@@ -56,6 +57,10 @@ pub enum ApiError {
     Timeout { seconds: u64 },
     #[error("internal error: {0}")]
     Internal(String),
+    /// A response axum or a layer made without a problem document (405,
+    /// path and query rejections), turned into one by [`problem_documents`].
+    #[error("{detail}")]
+    Http { status: StatusCode, detail: String },
 }
 
 impl ApiError {
@@ -77,7 +82,9 @@ impl ApiError {
                 StatusCode::NOT_FOUND
             }
             Self::SceneExists(_) => StatusCode::CONFLICT,
-            Self::BadBody { status, .. } | Self::BadUpgrade { status, .. } => *status,
+            Self::BadBody { status, .. }
+            | Self::BadUpgrade { status, .. }
+            | Self::Http { status, .. } => *status,
             Self::TooManyRays { .. } => StatusCode::PAYLOAD_TOO_LARGE,
             Self::InvalidRay { .. }
             | Self::Invalid(_)
@@ -117,6 +124,14 @@ impl ApiError {
             Self::Busy { .. } => ("busy", "Server busy"),
             Self::Timeout { .. } => ("timeout", "Request timed out"),
             Self::Internal(_) => ("internal", "Internal error"),
+            Self::Http { status, .. } => match *status {
+                StatusCode::METHOD_NOT_ALLOWED => ("method-not-allowed", "Method not allowed"),
+                StatusCode::BAD_REQUEST => ("bad-request", "Bad request"),
+                _ => (
+                    "http-error",
+                    status.canonical_reason().unwrap_or("HTTP error"),
+                ),
+            },
         }
     }
 
@@ -186,8 +201,86 @@ impl From<JsonRejection> for ApiError {
     }
 }
 
+/// Makes every error response a problem document: those axum writes
+/// itself (405 with an empty body, text/plain rejections of a path that is
+/// not UTF-8 or a repeated query parameter) keep their status and headers
+/// (`Allow`) and get the problem body, with axum's text as the detail.
+pub async fn problem_documents(request: Request, next: Next) -> Response {
+    let response = next.run(request).await;
+    let status = response.status();
+    let is_problem = response
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .is_some_and(|v| v.as_bytes().starts_with(b"application/problem+json"));
+    if !(status.is_client_error() || status.is_server_error()) || is_problem {
+        return response;
+    }
+    let (parts, body) = response.into_parts();
+    // Rejection texts are a line; anything longer is cut, not buffered.
+    let text = axum::body::to_bytes(body, 4096).await.unwrap_or_default();
+    let detail = match String::from_utf8_lossy(&text).trim() {
+        "" => status.canonical_reason().unwrap_or("error").to_owned(),
+        text => text.to_owned(),
+    };
+    let mut problem = ApiError::Http { status, detail }.into_response();
+    for (name, value) in &parts.headers {
+        if name != header::CONTENT_TYPE && name != header::CONTENT_LENGTH {
+            problem.headers_mut().append(name.clone(), value.clone());
+        }
+    }
+    problem
+}
+
 /// `axum::Json` whose rejection is an [`ApiError`], so malformed bodies
 /// come out as problem documents rather than axum's plain text.
 #[derive(FromRequest)]
 #[from_request(via(axum::Json), rejection(ApiError))]
 pub struct JsonBody<T>(pub T);
+
+#[cfg(test)]
+mod tests {
+    use axum::body::Body;
+    use axum::http::{Request, StatusCode};
+
+    use crate::routes::test_support::*;
+
+    #[tokio::test]
+    async fn errors_axum_writes_itself_are_problem_documents() {
+        let server = TestServer::new();
+        let cases = [
+            // Method not allowed: axum answers with an empty body.
+            (Request::put("/v1/scenes"), StatusCode::METHOD_NOT_ALLOWED),
+            (Request::delete("/healthz"), StatusCode::METHOD_NOT_ALLOWED),
+            // A path segment that is not UTF-8.
+            (Request::get("/v1/scenes/%FF%FE"), StatusCode::BAD_REQUEST),
+            // A repeated query parameter.
+            (
+                Request::post("/v1/scenes?id=a&id=b"),
+                StatusCode::BAD_REQUEST,
+            ),
+        ];
+        for (builder, expected) in cases {
+            let request = builder
+                .header("content-type", "application/json")
+                .body(Body::from(BOX_DOC))
+                .unwrap();
+            let uri = request.uri().clone();
+            let (status, content_type, problem) = server.send(request).await;
+            assert_eq!(status, expected, "{uri}: {problem}");
+            assert_eq!(content_type, "application/problem+json", "{uri}");
+            assert_eq!(problem["status"], expected.as_u16(), "{uri}");
+            assert!(!problem["detail"].as_str().unwrap().is_empty(), "{uri}");
+        }
+        let response = tower::ServiceExt::oneshot(
+            crate::router(server.state.clone()),
+            Request::put("/v1/scenes").body(Body::empty()).unwrap(),
+        )
+        .await
+        .unwrap();
+        let allow = response
+            .headers()
+            .get("allow")
+            .map(|v| v.to_str().unwrap().to_owned());
+        assert!(allow.is_some_and(|a| a.contains("POST")));
+    }
+}
