@@ -348,7 +348,9 @@ impl BruteForce {
             let face = &self.faces[sequence[i].face];
             let (from, to) = (images[i + 1], points[i + 2]);
             let (df, dt) = (face.distance(from), face.distance(to));
-            if !(df * dt < 0.0) {
+            // The face must separate the image from the point (a NaN
+            // product separates nothing).
+            if df * dt >= 0.0 || (df * dt).is_nan() {
                 return None;
             }
             let p = from + (to - from) * (df / (df - dt));
@@ -555,9 +557,9 @@ mod tests {
         assert_eq!(dry.len(), 25);
         assert_eq!(dry.len(), wet.len());
         for (d, w) in dry.iter().zip(&wet) {
-            for b in 0..BAND_COUNT {
+            for (b, a) in air.iter().enumerate() {
                 let db = 20.0 * (d.pressure_gain[b] / w.pressure_gain[b]).log10();
-                assert_close(db, air[b] * d.length, 1e-9, "air");
+                assert_close(db, a * d.length, 1e-9, "air");
             }
         }
     }
@@ -664,9 +666,8 @@ mod tests {
         assert!(p.events[0].transmission);
         assert_close(p.length, s.distance(l), 1e-12, "length");
         assert!(p.image_source.distance(s) < 1e-12);
-        for b in 0..BAND_COUNT {
-            let g = f64::from(tau[b]).sqrt() / s.distance(l);
-            assert_close(p.pressure_gain[b], g, 1e-12, "gain");
+        for (&gain, t) in p.pressure_gain.iter().zip(tau) {
+            assert_close(gain, f64::from(t).sqrt() / s.distance(l), 1e-12, "gain");
         }
         // Every longer path passes it exactly once, and reflects off no
         // wall on the wrong side.
