@@ -237,7 +237,7 @@ fn parse(
         }
         "model/obj" | "text/plain" => parse_obj(text()?),
         "model/gltf-binary" | "model/gltf+json" | "application/octet-stream" => {
-            parse_gltf(bytes, None)
+            parse_gltf(bytes, None, max_triangles as u64)
         }
         other => {
             return Err(ApiError::UnsupportedMediaType(format!(

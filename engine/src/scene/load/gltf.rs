@@ -17,9 +17,13 @@ use crate::{Error, Result};
 const MAX_NODE_VISITS: usize = 1_000_000;
 const MAX_NODE_DEPTH: usize = 1_000;
 
+/// Triangles a file may instantiate (nodes sharing meshes included) when
+/// the caller sets no budget of its own.
+const MAX_GLTF_TRIANGLES: u64 = 50_000_000;
+
 /// Loads a `.gltf` or `.glb` file; side-car buffers are looked up next to it.
 pub fn load_gltf(path: &Path) -> Result<RawMesh> {
-    parse_gltf(&read(path)?, path.parent()).map_err(|e| match e {
+    parse_gltf(&read(path)?, path.parent(), MAX_GLTF_TRIANGLES).map_err(|e| match e {
         Error::Parse { reason, .. } => Error::Parse {
             what: path.display().to_string(),
             reason,
@@ -36,9 +40,21 @@ fn parse_error(reason: impl ToString) -> Error {
 }
 
 /// Parses glTF or GLB bytes; relative buffer URIs resolve against `base`
-/// and must stay inside it.
-pub fn parse_gltf(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh> {
+/// and must stay inside it. A file whose node graph instantiates more
+/// than `max_triangles` triangles is refused before any is built: a few
+/// kilobytes of nodes listing a child twice, nested, make millions.
+pub fn parse_gltf(bytes: &[u8], base: Option<&Path>, max_triangles: u64) -> Result<RawMesh> {
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(parse_error)?;
+    let roots: Vec<gltf::Node> = match document.default_scene() {
+        Some(scene) => scene.nodes().collect(),
+        None => document.scenes().flat_map(|s| s.nodes()).collect(),
+    };
+    let triangles = instantiated_triangles(&document, &roots)?;
+    if triangles > max_triangles {
+        return Err(Error::InvalidScene(format!(
+            "the glTF instantiates {triangles} triangles; the limit is {max_triangles}"
+        )));
+    }
     for buffer in document.buffers() {
         if let gltf::buffer::Source::Uri(uri) = buffer.source() {
             if uri.starts_with("data:") {
@@ -54,10 +70,6 @@ pub fn parse_gltf(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh> {
     }
     let buffers = gltf::import_buffers(&document, base, blob).map_err(parse_error)?;
     let mut mesh = RawMesh::default();
-    let roots: Vec<gltf::Node> = match document.default_scene() {
-        Some(scene) => scene.nodes().collect(),
-        None => document.scenes().flat_map(|s| s.nodes()).collect(),
-    };
     if roots.is_empty() {
         // No scene graph: take the meshes as they are.
         for m in document.meshes() {
@@ -80,6 +92,40 @@ pub fn parse_gltf(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh> {
         stack.extend(node.children().map(|c| (c, world, depth + 1)));
     }
     Ok(mesh)
+}
+
+/// Triangles the node graph under `roots` instantiates (every mesh if
+/// there is no graph), from the accessors' counts: nothing is read or
+/// built. Cyclic or over-deep graphs are errors.
+fn instantiated_triangles(document: &gltf::Document, roots: &[gltf::Node]) -> Result<u64> {
+    let mesh_triangles = |m: &gltf::Mesh| -> u64 {
+        m.primitives()
+            .map(|p| {
+                let count = match p.indices() {
+                    Some(indices) => indices.count(),
+                    None => p.get(&gltf::Semantic::Positions).map_or(0, |a| a.count()),
+                };
+                count as u64 / 3
+            })
+            .sum()
+    };
+    if roots.is_empty() {
+        return Ok(document.meshes().map(|m| mesh_triangles(&m)).sum());
+    }
+    let per_mesh: Vec<u64> = document.meshes().map(|m| mesh_triangles(&m)).collect();
+    let mut stack: Vec<(gltf::Node, usize)> = roots.iter().map(|n| (n.clone(), 0)).collect();
+    let (mut visits, mut total) = (0usize, 0u64);
+    while let Some((node, depth)) = stack.pop() {
+        visits += 1;
+        if visits > MAX_NODE_VISITS || depth > MAX_NODE_DEPTH {
+            return Err(parse_error("the node graph is cyclic or too large"));
+        }
+        if let Some(m) = node.mesh() {
+            total = total.saturating_add(per_mesh[m.index()]);
+        }
+        stack.extend(node.children().map(|c| (c, depth + 1)));
+    }
+    Ok(total)
 }
 
 fn add_mesh(
@@ -203,16 +249,16 @@ mod tests {
 
     #[test]
     fn mirroring_nodes_keep_the_facing() {
-        let m = parse_gltf(triangle_gltf(4, -1.0).as_bytes(), None).unwrap();
+        let m = parse_gltf(triangle_gltf(4, -1.0).as_bytes(), None, 10).unwrap();
         let [a, b, c] = m.triangles[0].map(|i| m.positions[i as usize]);
         assert!((b - a).cross(c - a).z > 0.0);
     }
 
     #[test]
     fn rejects_non_triangle_modes_and_garbage() {
-        let err = parse_gltf(triangle_gltf(1, 1.0).as_bytes(), None).unwrap_err();
+        let err = parse_gltf(triangle_gltf(1, 1.0).as_bytes(), None, 10).unwrap_err();
         assert!(err.to_string().contains("only triangle lists"), "{err}");
-        assert!(parse_gltf(b"not gltf", None).is_err());
+        assert!(parse_gltf(b"not gltf", None, 10).is_err());
     }
 
     #[test]
@@ -222,7 +268,32 @@ mod tests {
         let end = start + text[start..].find('"').unwrap();
         let evil = format!("{}../secret.bin{}", &text[..start], &text[end..]);
         let dir = test_dir("gltf-evil");
-        assert!(parse_gltf(evil.as_bytes(), Some(&dir)).is_err());
+        assert!(parse_gltf(evil.as_bytes(), Some(&dir), 10).is_err());
         let _ = std::fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn an_instancing_bomb_is_refused_before_anything_is_built() {
+        // 18 levels of nodes each listing its child twice: 2^18 instances
+        // of one triangle in a few kilobytes.
+        let text = triangle_gltf(4, 1.0);
+        let levels = 18;
+        let nodes: Vec<String> = (0..levels)
+            .map(|i| format!(r#"{{"children": [{0}, {0}]}}"#, i + 1))
+            .chain([r#"{"mesh": 0}"#.to_owned()])
+            .collect();
+        let start = text.find(r#""nodes": [{"#).unwrap();
+        let end = start + text[start..].find("],\n  \"materials\"").unwrap() + 1;
+        let bomb = format!(
+            "{}\"nodes\": [{}]{}",
+            &text[..start],
+            nodes.join(", "),
+            &text[end..]
+        );
+        let e = parse_gltf(bomb.as_bytes(), None, 100_000).unwrap_err();
+        assert!(e.to_string().contains("262144 triangles"), "{e}");
+        // Within the budget it builds every instance.
+        let m = parse_gltf(bomb.as_bytes(), None, 1 << 18).unwrap();
+        assert_eq!(m.triangles.len(), 1 << 18);
     }
 }
