@@ -38,6 +38,8 @@ struct Inner {
     metrics: Metrics,
     compute: ComputePool,
     streams: Arc<Semaphore>,
+    /// KiB of upload bodies buffered at once, over all requests.
+    upload_buffer: Arc<Semaphore>,
     /// Cancelled on shutdown: streams close with "going away".
     shutdown: CancellationToken,
     /// Stream tasks, awaited on shutdown.
@@ -53,6 +55,13 @@ impl AppState {
             metrics: Metrics::default(),
             compute: ComputePool::new(config.limits.max_queued),
             streams: Arc::new(Semaphore::new(config.limits.max_streams)),
+            upload_buffer: Arc::new(Semaphore::new(
+                config
+                    .limits
+                    .max_buffered_upload_mib
+                    .saturating_mul(1024)
+                    .min(Semaphore::MAX_PERMITS),
+            )),
             shutdown: CancellationToken::new(),
             tasks: TaskTracker::new(),
         }));
@@ -84,6 +93,10 @@ impl AppState {
         &self.0.streams
     }
 
+    pub fn upload_buffer(&self) -> &Arc<Semaphore> {
+        &self.0.upload_buffer
+    }
+
     pub fn shutdown_token(&self) -> &CancellationToken {
         &self.0.shutdown
     }
@@ -93,9 +106,9 @@ impl AppState {
     }
 
     pub fn refresh_scene_gauges(&self) {
-        let scenes = self.registry().list();
-        let triangles: usize = scenes.iter().map(|e| e.read().scene.triangle_count()).sum();
-        self.metrics().scenes.set(scenes.len() as i64);
+        let scenes = self.registry().list().len();
+        let triangles = self.registry().total_triangles();
+        self.metrics().scenes.set(scenes as i64);
         self.metrics().triangles.set(triangles as i64);
     }
 }

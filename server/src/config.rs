@@ -44,6 +44,10 @@ pub struct Limits {
     /// Largest scene upload, in MiB.
     #[arg(long, env = "FRUSTA_MAX_UPLOAD_MIB", default_value_t = 256)]
     pub max_upload_mib: usize,
+    /// Upload bytes the server buffers at once over all requests, in MiB:
+    /// uploads past it wait for none and are refused (503, Retry-After).
+    #[arg(long, env = "FRUSTA_MAX_BUFFERED_UPLOAD_MIB", default_value_t = 512)]
+    pub max_buffered_upload_mib: usize,
     /// Most triangles in one scene.
     #[arg(long, env = "FRUSTA_MAX_TRIANGLES", default_value_t = 2_000_000)]
     pub max_triangles: usize,

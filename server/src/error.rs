@@ -53,6 +53,8 @@ pub enum ApiError {
     Forbidden(String),
     #[error("the server is busy with {queued} simulations; retry shortly")]
     Busy { queued: usize },
+    #[error("{0}")]
+    UploadsBusy(String),
     #[error("the request took longer than {seconds} s")]
     Timeout { seconds: u64 },
     #[error("internal error: {0}")]
@@ -95,7 +97,7 @@ impl ApiError {
             Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             Self::Unauthorized => StatusCode::UNAUTHORIZED,
             Self::Forbidden(_) => StatusCode::FORBIDDEN,
-            Self::Busy { .. } => StatusCode::SERVICE_UNAVAILABLE,
+            Self::Busy { .. } | Self::UploadsBusy(_) => StatusCode::SERVICE_UNAVAILABLE,
             Self::Timeout { .. } => StatusCode::GATEWAY_TIMEOUT,
             Self::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         }
@@ -122,6 +124,7 @@ impl ApiError {
             Self::Unauthorized => ("unauthorized", "Unauthorized"),
             Self::Forbidden(_) => ("forbidden", "Forbidden"),
             Self::Busy { .. } => ("busy", "Server busy"),
+            Self::UploadsBusy(_) => ("uploads-busy", "Too many uploads in flight"),
             Self::Timeout { .. } => ("timeout", "Request timed out"),
             Self::Internal(_) => ("internal", "Internal error"),
             Self::Http { status, .. } => match *status {
@@ -167,7 +170,7 @@ pub struct Problem {
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let status = self.status();
-        if status.is_server_error() && !matches!(self, Self::Busy { .. }) {
+        if status.is_server_error() && !matches!(self, Self::Busy { .. } | Self::UploadsBusy(_)) {
             tracing::error!(error = %self, "request failed");
         }
         // Serialising a struct of strings and integers cannot fail.
@@ -183,7 +186,7 @@ impl IntoResponse for ApiError {
             Self::Unauthorized => {
                 headers.insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
             }
-            Self::Busy { .. } => {
+            Self::Busy { .. } | Self::UploadsBusy(_) => {
                 headers.insert(header::RETRY_AFTER, HeaderValue::from_static("1"));
             }
             _ => {}

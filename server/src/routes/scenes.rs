@@ -152,6 +152,7 @@ pub async fn create(
     body: Body,
 ) -> Result<(StatusCode, HeaderMap, Json<SceneSummary>), ApiError> {
     let limit = state.limits().max_upload_bytes();
+    let _buffer = claim_upload_buffer(&state, &headers, limit)?;
     let bytes = match Limited::new(body, limit).collect().await {
         Ok(collected) => collected.to_bytes(),
         Err(e) if e.downcast_ref::<LengthLimitError>().is_some() => {
@@ -212,6 +213,44 @@ pub async fn create(
         headers.insert(header::LOCATION, location);
     }
     Ok((StatusCode::CREATED, headers, Json(summary)))
+}
+
+/// Claims room for the body in the server's upload buffer before reading
+/// it: its declared length, or the most an upload may be without one. So
+/// concurrent uploads never buffer more than the budget in all.
+fn claim_upload_buffer(
+    state: &AppState,
+    headers: &HeaderMap,
+    limit: usize,
+) -> Result<tokio::sync::OwnedSemaphorePermit, ApiError> {
+    let declared = headers
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok()?.parse::<usize>().ok());
+    if declared.is_some_and(|n| n > limit) {
+        return Err(ApiError::BadBody {
+            status: StatusCode::PAYLOAD_TOO_LARGE,
+            detail: format!(
+                "the upload exceeds this server's limit of {} MiB",
+                state.limits().max_upload_mib
+            ),
+        });
+    }
+    let kib = declared.unwrap_or(limit).div_ceil(1024).max(1);
+    let budget = state.limits().max_buffered_upload_mib;
+    u32::try_from(kib)
+        .ok()
+        .and_then(|kib| {
+            state
+                .upload_buffer()
+                .clone()
+                .try_acquire_many_owned(kib)
+                .ok()
+        })
+        .ok_or_else(|| {
+            ApiError::UploadsBusy(format!(
+                "uploads in flight fill this server's {budget} MiB upload buffer; retry shortly"
+            ))
+        })
 }
 
 fn parse(
@@ -493,5 +532,34 @@ mod tests {
             .as_array()
             .map(Vec::len);
         assert_eq!(before, after);
+    }
+
+    #[tokio::test]
+    async fn uploads_wait_for_no_one_past_the_upload_buffer() {
+        let server = TestServer::with(|c| {
+            c.limits.max_upload_mib = 1;
+            c.limits.max_buffered_upload_mib = 1;
+        });
+        // Another upload holds the whole buffer.
+        let held = server.state.upload_buffer().clone();
+        let held = held.try_acquire_many_owned(1024).unwrap();
+        let (status, _, problem) = server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE, "{problem}");
+        assert!(problem["detail"]
+            .as_str()
+            .unwrap()
+            .contains("upload buffer"));
+        drop(held);
+        let (status, _, _) = server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        assert_eq!(status, StatusCode::CREATED);
+        // A declared length over the limit is refused before it is read.
+        let request = axum::http::Request::post("/v1/scenes?id=big")
+            .header("content-type", "application/json")
+            .header("content-length", (2 << 20).to_string())
+            .body(axum::body::Body::from(BOX_DOC))
+            .unwrap();
+        let (status, _, _) = server.send(request).await;
+        assert_eq!(status, StatusCode::PAYLOAD_TOO_LARGE);
+        assert_eq!(server.state.upload_buffer().available_permits(), 1024);
     }
 }
