@@ -80,6 +80,14 @@ pub struct Limits {
     /// Open WebSocket streams.
     #[arg(long, env = "FRUSTA_MAX_STREAMS", default_value_t = 64)]
     pub max_streams: usize,
+    /// Connections open at once; past it new ones wait in the listen
+    /// backlog until one closes (keep it below the file-descriptor limit).
+    #[arg(long, env = "FRUSTA_MAX_CONNECTIONS", default_value_t = 512)]
+    pub max_connections: usize,
+    /// Time a client has to send a request's headers, in seconds; a
+    /// connection that takes longer is closed.
+    #[arg(long, env = "FRUSTA_HEADER_TIMEOUT_S", default_value_t = 10)]
+    pub header_timeout_s: u64,
     /// Time a whole request may take, in seconds.
     #[arg(long, env = "FRUSTA_REQUEST_TIMEOUT_S", default_value_t = 60)]
     pub request_timeout_s: u64,
@@ -92,6 +100,10 @@ impl Limits {
 
     pub fn max_compute(&self) -> Duration {
         Duration::from_millis(self.max_compute_ms)
+    }
+
+    pub fn header_timeout(&self) -> Duration {
+        Duration::from_secs(self.header_timeout_s)
     }
 
     pub fn request_timeout(&self) -> Duration {

@@ -10,6 +10,7 @@ mod auth;
 mod background;
 mod compute;
 pub mod config;
+mod connections;
 mod error;
 mod metrics;
 mod registry;
@@ -97,12 +98,13 @@ pub async fn serve(
 ) -> std::io::Result<()> {
     let token = state.shutdown_token().clone();
     let tasks = state.tasks().clone();
-    axum::serve(listener, router(state))
-        .with_graceful_shutdown(async move {
-            shutdown.await;
-            token.cancel();
-        })
-        .await?;
+    let limits = state.limits().clone();
+    let cancel = token.clone();
+    tokio::spawn(async move {
+        shutdown.await;
+        cancel.cancel();
+    });
+    connections::accept(listener, router(state), &limits, &token).await;
     tasks.close();
     tasks.wait().await;
     Ok(())

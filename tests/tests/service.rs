@@ -398,3 +398,45 @@ fn streams_are_capped_and_a_deleted_scene_closes_its_streams() {
     };
     assert_eq!(code, Some(1000));
 }
+
+#[test]
+fn half_sent_requests_are_cut_off_and_cannot_take_every_connection() {
+    use std::io::{Read, Write};
+    let data = DataDir::new("slow-headers");
+    let mut config = data.config();
+    config.limits.header_timeout_s = 1;
+    config.limits.max_connections = 4;
+    let server = Server::start_with(config);
+    let address = server.url("").trim_start_matches("http://").to_owned();
+    // Every connection the server takes, held by a client that never
+    // finishes its headers.
+    let stalled: Vec<std::net::TcpStream> = (0..4)
+        .map(|_| {
+            let mut s = std::net::TcpStream::connect(&address).expect("connect");
+            s.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n")
+                .expect("write");
+            s
+        })
+        .collect();
+    // The server closes them once the header timeout passes...
+    for mut s in stalled {
+        s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        let mut buf = [0u8; 256];
+        // Whatever the server writes, then the end of the stream.
+        let end = loop {
+            match s.read(&mut buf) {
+                Ok(0) => break None,
+                Ok(_) => continue,
+                Err(e) => break Some(e.kind()),
+            }
+        };
+        let waited = matches!(
+            end,
+            Some(std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut)
+        );
+        assert!(!waited, "a half-sent request was kept open for 10 s");
+    }
+    // ... so a well-behaved client is served again.
+    let (status, _, _) = get(&server.url("/healthz"));
+    assert_eq!(status, 200);
+}
