@@ -34,6 +34,9 @@ pub struct LiveScene {
 pub struct SceneEntry {
     pub id: String,
     pub meta: SceneMeta,
+    /// The objects' names in index order; objects are never added or
+    /// removed, so these are read without the scene's lock.
+    pub object_names: Vec<String>,
     live: RwLock<LiveScene>,
     /// Streams watch this to recompute when someone else edits the scene;
     /// it closes when the scene is deleted.
@@ -73,11 +76,22 @@ pub struct EditReport {
 }
 
 /// A new object state: either or both of a transform and vertex positions.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ObjectEdit {
     pub rotation: Option<[f32; 4]>,
     pub translation: Option<[f32; 3]>,
     pub vertices: Option<Vec<Vec3>>,
+}
+
+impl ObjectEdit {
+    /// `newer` applied after this edit: each field it sets replaces ours.
+    pub fn merge(&mut self, newer: ObjectEdit) {
+        self.rotation = newer.rotation.or(self.rotation);
+        self.translation = newer.translation.or(self.translation);
+        if newer.vertices.is_some() {
+            self.vertices = newer.vertices;
+        }
+    }
 }
 
 pub struct Registry {
@@ -243,6 +257,7 @@ impl Registry {
         let entry = SceneEntry {
             id: id.clone(),
             meta,
+            object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
             live: RwLock::new(LiveScene {
                 scene,
                 acoustic,
@@ -290,81 +305,69 @@ impl Registry {
         object: usize,
         edit: &ObjectEdit,
     ) -> Result<EditReport, ApiError> {
-        let start = Instant::now();
+        let mut reports = self.edit_objects(entry, &[(object, edit.clone())])?;
+        Ok(reports.remove(0))
+    }
+
+    /// Several object edits as one: all are validated before any is
+    /// stored or applied, so an invalid one leaves every object as it was.
+    /// One report per edit. Blocking.
+    pub fn edit_objects(
+        &self,
+        entry: &SceneEntry,
+        edits: &[(usize, ObjectEdit)],
+    ) -> Result<Vec<EditReport>, ApiError> {
         let mut live = entry.write();
         if live.deleted {
             return Err(ApiError::SceneNotFound(entry.id.clone()));
         }
-        let Some(current) = live.scene.objects.get(object) else {
-            return Err(ApiError::UnknownObject(format!(
-                "#{object} (the scene has {})",
-                live.scene.objects.len()
-            )));
-        };
-        let transform = if edit.rotation.is_some() || edit.translation.is_some() {
-            let rotation = edit
-                .rotation
-                .map_or(current.transform.rotation, glam::Quat::from_array);
-            let translation = edit
-                .translation
-                .map_or(current.transform.translation, Vec3::from_array);
-            Some(RigidTransform::new(rotation, translation).map_err(ApiError::from_engine)?)
-        } else {
-            None
-        };
-        let mesh = match &edit.vertices {
-            Some(v) if v.len() != current.mesh.positions().len() => {
-                return Err(ApiError::from_engine(
-                    frusta_engine::Error::VertexCountMismatch {
-                        expected: current.mesh.positions().len(),
-                        actual: v.len(),
-                    },
-                ))
+        let prepared = edits
+            .iter()
+            .map(|(object, edit)| prepare(&live, *object, edit))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut reports = Vec::with_capacity(prepared.len());
+        for (&(object, _), (transform, mesh)) in edits.iter().zip(prepared) {
+            let start = Instant::now();
+            let index = object as u32;
+            if let Some(t) = &transform {
+                self.store
+                    .put_transform(&entry.id, index, t)
+                    .map_err(ApiError::storage)?;
             }
-            Some(v) => Some(
-                TriangleMesh::new(v.clone(), current.mesh.triangles().to_vec())
-                    .map_err(ApiError::from_engine)?,
-            ),
-            None => None,
-        };
-        let index = object as u32;
-        if let Some(t) = &transform {
-            self.store
-                .put_transform(&entry.id, index, t)
-                .map_err(ApiError::storage)?;
-        }
-        if let Some(m) = &mesh {
-            self.store
-                .put_positions(&entry.id, index, m.positions())
-                .map_err(ApiError::storage)?;
-        }
-        let mut update: Option<UpdateReport> = None;
-        if let Some(t) = transform {
-            live.acoustic
-                .set_transform(object, t)
-                .map_err(ApiError::from_engine)?;
-            live.scene.objects[object].transform = t;
-        }
-        if let Some(m) = mesh {
-            let materials = live.scene.objects[object].materials.clone();
-            update = Some(
+            if let Some(m) = &mesh {
+                self.store
+                    .put_positions(&entry.id, index, m.positions())
+                    .map_err(ApiError::storage)?;
+            }
+            let mut update: Option<UpdateReport> = None;
+            if let Some(t) = transform {
                 live.acoustic
-                    .update_mesh(object, &m, &materials, DEFAULT_REBUILD_THRESHOLD)
-                    .map_err(ApiError::from_engine)?,
-            );
-            live.scene.objects[object].mesh = m;
+                    .set_transform(object, t)
+                    .map_err(ApiError::from_engine)?;
+                live.scene.objects[object].transform = t;
+            }
+            if let Some(m) = mesh {
+                let materials = live.scene.objects[object].materials.clone();
+                update = Some(
+                    live.acoustic
+                        .update_mesh(object, &m, &materials, DEFAULT_REBUILD_THRESHOLD)
+                        .map_err(ApiError::from_engine)?,
+                );
+                live.scene.objects[object].mesh = m;
+            }
+            let revision = entry.bump(&mut live);
+            reports.push(EditReport {
+                revision,
+                action: match update.map(|u| u.action) {
+                    None => "transform",
+                    Some(frusta_engine::bvh::UpdateAction::Refit) => "refit",
+                    Some(frusta_engine::bvh::UpdateAction::Rebuild) => "rebuild",
+                },
+                degradation: update.and_then(|u| u.degradation),
+                elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
+            });
         }
-        let revision = entry.bump(&mut live);
-        Ok(EditReport {
-            revision,
-            action: match update.map(|u| u.action) {
-                None => "transform",
-                Some(frusta_engine::bvh::UpdateAction::Refit) => "refit",
-                Some(frusta_engine::bvh::UpdateAction::Rebuild) => "rebuild",
-            },
-            degradation: update.and_then(|u| u.degradation),
-            elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
-        })
+        Ok(reports)
     }
 
     /// Replaces materials by name (coefficients only) and adds new ones;
@@ -402,6 +405,47 @@ impl Registry {
         live.scene = scene;
         Ok(entry.bump(&mut live))
     }
+}
+
+/// An edit's new transform and mesh, checked against the object as it is.
+fn prepare(
+    live: &LiveScene,
+    object: usize,
+    edit: &ObjectEdit,
+) -> Result<(Option<RigidTransform>, Option<TriangleMesh>), ApiError> {
+    let Some(current) = live.scene.objects.get(object) else {
+        return Err(ApiError::UnknownObject(format!(
+            "#{object} (the scene has {})",
+            live.scene.objects.len()
+        )));
+    };
+    let transform = if edit.rotation.is_some() || edit.translation.is_some() {
+        let rotation = edit
+            .rotation
+            .map_or(current.transform.rotation, glam::Quat::from_array);
+        let translation = edit
+            .translation
+            .map_or(current.transform.translation, Vec3::from_array);
+        Some(RigidTransform::new(rotation, translation).map_err(ApiError::from_engine)?)
+    } else {
+        None
+    };
+    let mesh = match &edit.vertices {
+        Some(v) if v.len() != current.mesh.positions().len() => {
+            return Err(ApiError::from_engine(
+                frusta_engine::Error::VertexCountMismatch {
+                    expected: current.mesh.positions().len(),
+                    actual: v.len(),
+                },
+            ))
+        }
+        Some(v) => Some(
+            TriangleMesh::new(v.clone(), current.mesh.triangles().to_vec())
+                .map_err(ApiError::from_engine)?,
+        ),
+        None => None,
+    };
+    Ok((transform, mesh))
 }
 
 /// The scene's stored document, once it has been read back the way a

@@ -11,7 +11,7 @@ use utoipa::ToSchema;
 use crate::app::AppState;
 use crate::auth::Caller;
 use crate::error::{ApiError, JsonBody, Problem};
-use crate::registry::{EditReport, LiveScene, ObjectEdit};
+use crate::registry::{EditReport, ObjectEdit, SceneEntry};
 
 /// Omitted parts stay as they are.
 #[derive(Clone, Debug, Default, Deserialize, ToSchema)]
@@ -46,11 +46,11 @@ impl ObjectPatch {
 
 /// An object by name, or by index when the name is all digits and no
 /// object has that name.
-pub fn object_index(live: &LiveScene, object: &str) -> Result<usize, ApiError> {
-    let objects = &live.scene.objects;
+pub fn object_index(entry: &SceneEntry, object: &str) -> Result<usize, ApiError> {
+    let objects = &entry.object_names;
     objects
         .iter()
-        .position(|o| o.name == object)
+        .position(|name| name == object)
         .or_else(|| object.parse::<usize>().ok().filter(|&i| i < objects.len()))
         .ok_or_else(|| {
             ApiError::UnknownObject(format!(
@@ -80,7 +80,7 @@ pub async fn patch(
     let report = state
         .compute()
         .run(move || {
-            let index = object_index(&entry.read(), &object)?;
+            let index = object_index(&entry, &object)?;
             job_state.registry().edit_object(&entry, index, &edit)
         })
         .await??;

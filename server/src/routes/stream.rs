@@ -250,6 +250,8 @@ impl Stream {
         let mut edits = Vec::new();
         for m in update.objects.unwrap_or_default() {
             self.caller.may_change(&self.entry.meta)?;
+            // Named objects only: the pending edits stay one per object.
+            object_index(&self.entry, &m.object)?;
             edits.push((m.object, m.patch.to_edit()?));
         }
         let request = match (sources, listeners) {
@@ -268,7 +270,12 @@ impl Stream {
         if let Some(r) = request {
             self.pending.request = Some(r);
         }
-        self.pending.objects.extend(edits);
+        for (object, edit) in edits {
+            match self.pending.objects.iter_mut().find(|(o, _)| *o == object) {
+                Some((_, queued)) => queued.merge(edit),
+                None => self.pending.objects.push((object, edit)),
+            }
+        }
         self.pending.seq = update.seq.or(self.pending.seq);
         self.pending.dirty = self.pending.request.is_some()
             || self.current.is_some()
@@ -295,12 +302,18 @@ impl Stream {
             let job = move || {
                 let start = Instant::now();
                 let result = (|| {
-                    let mut objects = Vec::new();
-                    for (object, edit) in &pending.objects {
-                        let index = object_index(&entry.read(), object)?;
-                        let report = job_state.registry().edit_object(&entry, index, edit)?;
+                    let edits = pending
+                        .objects
+                        .iter()
+                        .map(|(object, edit)| Ok((object_index(&entry, object)?, edit.clone())))
+                        .collect::<Result<Vec<_>, ApiError>>()?;
+                    let objects = if edits.is_empty() {
+                        Vec::new()
+                    } else {
+                        job_state.registry().edit_objects(&entry, &edits)?
+                    };
+                    for report in &objects {
                         job_state.metrics().count_update(report.action);
-                        objects.push(report);
                     }
                     let (revision, responses) = match &request {
                         Some(r) => {
@@ -381,4 +394,67 @@ fn close(code: u16, reason: &'static str) -> Message {
         code,
         reason: reason.into(),
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::routes::test_support::*;
+
+    fn stream(server: &TestServer) -> Stream {
+        let state = server.state.clone();
+        let entry = state.registry().get("box").unwrap();
+        let permit = state.streams().clone().try_acquire_owned().unwrap();
+        Stream::new(state, Caller { key: None }, entry, permit)
+    }
+
+    #[tokio::test]
+    async fn queued_object_edits_stay_one_per_object_newest_wins() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let mut stream = stream(&server);
+        for i in 0..300 {
+            let z = 2.0 + f64::from(i) * 1e-3;
+            let update = format!(
+                r#"{{"objects": [{{"object": "panel", "vertices": [[4, 1, 0.5], [4, 2, 0.5], [4, 2, {z}], [4, 1, {z}]]}}]}}"#
+            );
+            stream.merge(&update).unwrap();
+        }
+        stream
+            .merge(r#"{"seq": 9, "objects": [{"object": "panel", "translation": [0, 1, 0]}]}"#)
+            .unwrap();
+        // An update naming no object of the scene changes nothing.
+        let ghost = r#"{"seq": 10, "objects": [{"object": "ghost", "translation": [0, 1, 0]}]}"#;
+        assert!(stream.merge(ghost).is_err());
+        assert_eq!(stream.pending.seq, Some(9));
+        assert_eq!(stream.pending.objects.len(), 1);
+        let (object, edit) = &stream.pending.objects[0];
+        assert_eq!(object, "panel");
+        assert_eq!(edit.translation, Some([0.0, 1.0, 0.0]));
+        let top = edit.vertices.as_ref().unwrap()[2].z;
+        assert!((top - 2.299).abs() < 1e-6, "{top}");
+    }
+
+    #[tokio::test]
+    async fn an_update_with_one_invalid_edit_changes_no_object() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let registry = server.state.registry();
+        let entry = registry.get("box").unwrap();
+        let moved = ObjectEdit {
+            translation: Some([0.0, 1.0, 0.0]),
+            ..Default::default()
+        };
+        let wrong_count = ObjectEdit {
+            vertices: Some(vec![glam::Vec3::ZERO; 3]),
+            ..Default::default()
+        };
+        let e = registry.edit_objects(&entry, &[(1, moved), (1, wrong_count)]);
+        assert!(e.is_err());
+        assert_eq!(entry.read().revision, 0);
+        let server = server.restart();
+        let entry = server.state.registry().get("box").unwrap();
+        let panel = &entry.read().scene.objects[1];
+        assert_eq!(panel.transform.translation, glam::Vec3::ZERO);
+    }
 }
