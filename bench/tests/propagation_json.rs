@@ -26,7 +26,7 @@ fn shoebox_quick_sweep_has_full_recall_and_no_false_paths() {
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
-    let provenance = lines.remove(0);
+    let provenance = lines.pop().unwrap();
     let provenance = &provenance["provenance"];
     for field in ["command", "commit", "machine"] {
         assert!(!provenance[field].is_null(), "{provenance}");

@@ -36,7 +36,7 @@ const CELL_MODES: [(CellAssignment, &str); 2] = [
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Print JSON lines (a provenance line, then one object per run)
+    /// Print JSON lines (one object per run, then a provenance line)
     /// instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -64,7 +64,7 @@ pub struct Args {
     pub no_peer: bool,
 }
 
-/// A saved run's first line.
+/// A saved run's last line (last, so that it has the load at the end).
 #[derive(serde::Serialize, serde::Deserialize)]
 struct ProvenanceLine {
     provenance: Provenance,
@@ -72,7 +72,7 @@ struct ProvenanceLine {
 
 fn from_json(args: &Args) -> Result<(), String> {
     let mut rows = Vec::new();
-    let mut headers = String::new();
+    let mut headers = format!("table: {}\n", provenance::command());
     for path in &args.from_json {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let err = |e: serde_json::Error| format!("{}: {e}", path.display());
@@ -110,15 +110,6 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     let threads = rayon::current_num_threads();
     let mut provenance = provenance::start(threads);
-    if args.json {
-        let line = ProvenanceLine {
-            provenance: provenance.clone(),
-        };
-        println!(
-            "{}",
-            serde_json::to_string(&line).map_err(|e| e.to_string())?
-        );
-    }
     let (ns, orders_quick): (&[u32], &[u32]) = if !args.samplings.is_empty() {
         (&args.samplings, &[2, 4])
     } else if args.quick {
@@ -301,7 +292,13 @@ pub fn run(args: Args) -> Result<(), String> {
     }
 
     provenance.finish();
-    if !args.json {
+    if args.json {
+        let line = ProvenanceLine { provenance };
+        println!(
+            "{}",
+            serde_json::to_string(&line).map_err(|e| e.to_string())?
+        );
+    } else {
         print!("{}{}", provenance.header(), table(&rows, threads));
     }
     if let Some(path) = &args.plot {
