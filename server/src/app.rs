@@ -37,6 +37,9 @@ struct Inner {
     api_keys: Vec<String>,
     metrics: Metrics,
     compute: ComputePool,
+    /// Ray and occlusion queries: a lane of their own, so a query of
+    /// microseconds never waits behind impulse responses of seconds.
+    queries: ComputePool,
     streams: Arc<Semaphore>,
     /// KiB of upload bodies buffered at once, over all requests.
     upload_buffer: Arc<Semaphore>,
@@ -54,6 +57,7 @@ impl AppState {
             api_keys: config.api_keys.iter().map(|k| digest(k.trim())).collect(),
             metrics: Metrics::default(),
             compute: ComputePool::new(config.limits.max_queued),
+            queries: ComputePool::new(config.limits.max_queued),
             streams: Arc::new(Semaphore::new(config.limits.max_streams)),
             upload_buffer: Arc::new(Semaphore::new(
                 config
@@ -87,6 +91,10 @@ impl AppState {
 
     pub fn compute(&self) -> &ComputePool {
         &self.0.compute
+    }
+
+    pub fn queries(&self) -> &ComputePool {
+        &self.0.queries
     }
 
     pub fn streams(&self) -> &Arc<Semaphore> {

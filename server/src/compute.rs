@@ -57,6 +57,12 @@ impl ComputePool {
         }
     }
 
+    /// Workers free to start a job now.
+    #[cfg(test)]
+    pub(crate) fn idle_workers(&self) -> usize {
+        self.running.available_permits()
+    }
+
     /// An idle pool, or a new one while fewer than `workers` exist.
     fn take_pool(&self) -> Result<Arc<ThreadPool>, ApiError> {
         if let Some(pool) = self.idle.lock().unwrap_or_else(|e| e.into_inner()).pop() {

@@ -74,7 +74,7 @@ pub async fn check(
         })
         .collect::<Result<Vec<_>, _>>()?;
     let visible = state
-        .compute()
+        .queries()
         .run(move || {
             let live = entry.read();
             let bvh = live.acoustic.bvh();

@@ -128,7 +128,7 @@ pub async fn trace(
         .map(|(i, r)| r.to_ray(i))
         .collect::<Result<Vec<_>, _>>()?;
     let response = state
-        .compute()
+        .queries()
         .run(move || {
             let live = entry.read();
             let bvh = live.acoustic.bvh();
@@ -262,5 +262,38 @@ mod tests {
             .send(post_json("/v1/scenes/atlantis/rays", body))
             .await;
         assert_eq!(status, StatusCode::NOT_FOUND);
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn rays_are_answered_while_every_simulation_worker_is_busy() {
+        let server = TestServer::new();
+        // Long jobs hold every worker of the simulation lane (and queue).
+        let mut release = Vec::new();
+        let mut held = Vec::new();
+        for _ in 0..8 {
+            let (tx, rx) = std::sync::mpsc::channel::<()>();
+            release.push(tx);
+            let pool = server.state.compute().clone();
+            held.push(tokio::spawn(async move {
+                pool.run(move || rx.recv().is_ok()).await
+            }));
+        }
+        while server.state.compute().idle_workers() > 0 {
+            tokio::task::yield_now().await;
+        }
+        let body = r#"{"rays":[{"origin":[1,1,1],"direction":[1,0,0]}]}"#;
+        let answer = tokio::time::timeout(
+            std::time::Duration::from_secs(20),
+            server.send(post_json(SHOEBOX_RAYS, body)),
+        )
+        .await;
+        for tx in release {
+            tx.send(()).unwrap();
+        }
+        for job in held {
+            assert!(job.await.unwrap().unwrap());
+        }
+        let (status, _, _) = answer.expect("the ray query waited for the simulations");
+        assert_eq!(status, StatusCode::OK);
     }
 }
