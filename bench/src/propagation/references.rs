@@ -26,8 +26,11 @@ const INDEPENDENT_SEQUENCES: f64 = 2e7;
 /// two threads, and give those cases a recall.
 const EXHAUSTIVE_SEQUENCES: f64 = 2e9;
 /// Nor is either reference where its time, extrapolated from the order
-/// below by the ratio of sequence counts, would exceed this.
-const BUDGET: Duration = Duration::from_secs(400);
+/// below by the ratio of sequence counts, would exceed this. The
+/// extrapolation overestimates about 3x in the halls (longer sequences
+/// fail sooner), and the shared machine's load moves it by 2x: this
+/// admits hall-200k at order 3 (extrapolated 250-500 s, measured 100-200 s).
+const BUDGET: Duration = Duration::from_secs(900);
 /// Timed repeats (median) for runs under a second.
 pub const REPEATS: usize = 3;
 
