@@ -72,6 +72,7 @@ fn add_bundled(registry: &Registry, dir: &Path) {
             owner: None,
             created_unix_ms: now_unix_ms(),
             bundled: true,
+            upload_digest: None,
         };
         let added = Scene::load(&path)
             .map_err(|e| e.to_string())

@@ -51,6 +51,11 @@ pub struct SceneMeta {
     pub owner: Option<String>,
     pub created_unix_ms: u64,
     pub bundled: bool,
+    /// SHA-256 (hex) of what was uploaded (media type, query and body):
+    /// the same upload to the same id again is a retry, answered with the
+    /// stored scene. `None` for bundled scenes and older records.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub upload_digest: Option<String>,
 }
 
 /// A scene as read back at startup.
@@ -227,6 +232,7 @@ mod tests {
             owner: Some("abc".into()),
             created_unix_ms: 7,
             bundled: false,
+            upload_digest: None,
         }
     }
 

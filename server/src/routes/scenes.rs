@@ -141,7 +141,9 @@ pub struct CreateQuery {
 /// (`model/gltf-binary`, `model/gltf+json`) mesh as one object.
 #[utoipa::path(post, path = "/v1/scenes", tag = "scenes", params(CreateQuery),
     request_body(content = String, description = "Scene document, OBJ or glTF", content_type = "application/json"),
-    responses((status = 201, body = SceneSummary), (status = 409, body = Problem, content_type = "application/problem+json"),
+    responses((status = 201, body = SceneSummary),
+        (status = 200, body = SceneSummary, description = "This exact upload was stored under this id before: a retry, answered with the stored scene"),
+        (status = 409, body = Problem, content_type = "application/problem+json"),
         (status = 413, body = Problem, content_type = "application/problem+json"), (status = 422, body = Problem, content_type = "application/problem+json")),
     security((), ("api_key" = [])))]
 pub async fn create(
@@ -183,6 +185,24 @@ pub async fn create(
     if let Some(id) = &query.id {
         check_id(id)?;
     }
+    // A retry of an upload that was stored (its answer lost, or a 504 that
+    // came while it finished) is answered with the stored scene.
+    let upload_digest = digest_upload(&content_type, &query, &bytes);
+    if let Some(entry) = query
+        .id
+        .as_ref()
+        .and_then(|id| state.registry().get(id).ok())
+    {
+        let same = entry.meta.owner == caller.key
+            && entry.meta.upload_digest.as_deref() == Some(upload_digest.as_str());
+        if same {
+            return Ok((
+                StatusCode::OK,
+                location(&entry.id),
+                Json(SceneSummary::new(&entry)),
+            ));
+        }
+    }
     let job_state = state.clone();
     let summary = state
         .compute()
@@ -202,17 +222,39 @@ pub async fn create(
                 owner: caller.key.clone(),
                 created_unix_ms: now_unix_ms(),
                 bundled: false,
+                upload_digest: Some(upload_digest),
             };
             registry.create(reservation, meta, scene)?;
             Ok(SceneSummary::new(registry.get(&id)?.as_ref()))
         })
         .await??;
     state.refresh_scene_gauges();
+    let headers = location(&summary.id);
+    Ok((StatusCode::CREATED, headers, Json(summary)))
+}
+
+fn location(id: &str) -> HeaderMap {
     let mut headers = HeaderMap::new();
-    if let Ok(location) = format!("/v1/scenes/{}", summary.id).parse() {
+    if let Ok(location) = format!("/v1/scenes/{id}").parse() {
         headers.insert(header::LOCATION, location);
     }
-    Ok((StatusCode::CREATED, headers, Json(summary)))
+    headers
+}
+
+/// What identifies an upload: its media type, query and body.
+fn digest_upload(content_type: &str, query: &CreateQuery, body: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    let mut hash = Sha256::new();
+    for part in [
+        Some(content_type),
+        query.material.as_deref(),
+        query.object.as_deref(),
+    ] {
+        hash.update(part.unwrap_or("\u{0}").as_bytes());
+        hash.update([0xff]);
+    }
+    hash.update(body);
+    hash.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Claims room for the body in the server's upload buffer before reading
@@ -414,7 +456,8 @@ mod tests {
         assert_eq!(status, StatusCode::CREATED, "{created}");
         assert_eq!(created["id"], "box");
         assert_eq!(created["triangles"], 14);
-        let (status, _, again) = server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let other = BOX_DOC.replace("0.1", "0.3");
+        let (status, _, again) = server.send(post_json("/v1/scenes?id=box", &other)).await;
         assert_eq!(status, StatusCode::CONFLICT, "{again}");
         let (status, _, detail) = server.send(get("/v1/scenes/box")).await;
         assert_eq!(status, StatusCode::OK);
@@ -561,5 +604,26 @@ mod tests {
         let (status, _, _) = server.send(request).await;
         assert_eq!(status, StatusCode::PAYLOAD_TOO_LARGE);
         assert_eq!(server.state.upload_buffer().available_permits(), 1024);
+    }
+
+    #[tokio::test]
+    async fn a_retried_upload_is_answered_with_the_stored_scene() {
+        let server = TestServer::new();
+        let uri = "/v1/scenes?id=box";
+        let (status, _, first) = server.send(post_json(uri, BOX_DOC)).await;
+        assert_eq!(status, StatusCode::CREATED);
+        // The same upload again (its answer was lost, or a 504 came while
+        // it finished): the stored scene, and nothing new.
+        let (status, _, again) = server.send(post_json(uri, BOX_DOC)).await;
+        assert_eq!(status, StatusCode::OK, "{again}");
+        assert_eq!(again, first);
+        let changed = BOX_DOC.replace("0.1", "0.2");
+        let (status, _, problem) = server.send(post_json(uri, &changed)).await;
+        assert_eq!(status, StatusCode::CONFLICT);
+        assert!(problem["detail"].as_str().unwrap().contains("`box`"));
+        let server = server.restart();
+        let (status, _, _) = server.send(post_json(uri, BOX_DOC)).await;
+        assert_eq!(status, StatusCode::OK);
+        assert_eq!(server.state.registry().list().len(), 2);
     }
 }
