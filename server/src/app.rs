@@ -210,12 +210,17 @@ pub fn router(state: AppState) -> Router {
     let (v1, mut api) = OpenApiRouter::with_openapi(ApiDoc::openapi())
         .routes(routes!(scenes::list, scenes::create))
         .routes(routes!(scenes::detail, scenes::delete))
-        .routes(routes!(objects::patch))
+        .routes(
+            routes!(objects::patch)
+                .layer(axum::extract::DefaultBodyLimit::max(objects::BODY_LIMIT)),
+        )
         .routes(routes!(materials::patch))
         .routes(routes!(impulse_responses::create))
         .routes(routes!(stream::connect))
         .routes(routes!(rays::trace).layer(axum::extract::DefaultBodyLimit::max(rays::BODY_LIMIT)))
-        .routes(routes!(occlusion::check))
+        .routes(
+            routes!(occlusion::check).layer(axum::extract::DefaultBodyLimit::max(rays::BODY_LIMIT)),
+        )
         .layer(from_fn_with_state(state.clone(), auth::authenticate))
         .split_for_parts();
     utoipa::Modify::modify(&ProblemResponses, &mut api);

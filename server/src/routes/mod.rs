@@ -2,6 +2,7 @@
 
 pub mod health;
 pub mod impulse_responses;
+pub mod large_body;
 pub mod materials;
 pub mod objects;
 pub mod occlusion;

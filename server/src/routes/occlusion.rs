@@ -114,4 +114,22 @@ mod tests {
         assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
         assert_eq!(problem["ray_index"], 0);
     }
+
+    #[tokio::test]
+    async fn the_most_pairs_allowed_fit_in_the_body_limit() {
+        let server = TestServer::new();
+        let pair =
+            r#"{"from": [2.123456, 1.523456, 1.023456], "to": [6.123456, 1.523456, 1.023456]}"#;
+        let pairs = vec![pair; crate::routes::rays::MAX_RAYS].join(", ");
+        let body = format!(r#"{{"pairs": [{pairs}]}}"#);
+        assert!(body.len() > 2 << 20);
+        let (status, _, out) = server
+            .send(post_json("/v1/scenes/shoebox/occlusion", &body))
+            .await;
+        assert_eq!(status, StatusCode::OK);
+        assert_eq!(
+            out["visible"].as_array().unwrap().len(),
+            crate::routes::rays::MAX_RAYS
+        );
+    }
 }

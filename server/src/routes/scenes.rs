@@ -8,7 +8,6 @@ use axum::{Extension, Json};
 use frusta_engine::query::SceneBvhStats;
 use frusta_engine::scene::load::{parse_gltf, parse_obj};
 use frusta_engine::scene::{builtin_material, MeshSpec, Scene, SceneDocument};
-use http_body_util::{BodyExt, LengthLimitError, Limited};
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
@@ -16,6 +15,7 @@ use crate::app::AppState;
 use crate::auth::Caller;
 use crate::error::{ApiError, Problem};
 use crate::registry::{now_unix_ms, SceneEntry};
+use crate::routes::large_body;
 use crate::store::SceneMeta;
 
 #[derive(Serialize, ToSchema)]
@@ -154,40 +154,14 @@ pub async fn create(
     body: Body,
 ) -> Result<(StatusCode, HeaderMap, Json<SceneSummary>), ApiError> {
     let limit = state.limits().max_upload_bytes();
-    let _buffer = claim_upload_buffer(&state, &headers, limit)?;
-    let bytes = match Limited::new(body, limit).collect().await {
-        Ok(collected) => collected.to_bytes(),
-        Err(e) if e.downcast_ref::<LengthLimitError>().is_some() => {
-            return Err(ApiError::BadBody {
-                status: StatusCode::PAYLOAD_TOO_LARGE,
-                detail: format!(
-                    "the upload exceeds this server's limit of {} MiB",
-                    state.limits().max_upload_mib
-                ),
-            })
-        }
-        Err(e) => {
-            return Err(ApiError::BadBody {
-                status: StatusCode::BAD_REQUEST,
-                detail: format!("cannot read the body: {e}"),
-            })
-        }
-    };
-    let content_type = headers
-        .get(header::CONTENT_TYPE)
-        .and_then(|v| v.to_str().ok())
-        .unwrap_or("application/json")
-        .split(';')
-        .next()
-        .unwrap_or_default()
-        .trim()
-        .to_ascii_lowercase();
+    let body = large_body::read(&state, &headers, body, limit).await?;
+    let content_type = large_body::media_type(&headers, "application/json");
     if let Some(id) = &query.id {
         check_id(id)?;
     }
     // A retry of an upload that was stored (its answer lost, or a 504 that
     // came while it finished) is answered with the stored scene.
-    let upload_digest = digest_upload(&content_type, &query, &bytes);
+    let upload_digest = digest_upload(&content_type, &query, &body.bytes);
     if let Some(entry) = query
         .id
         .as_ref()
@@ -207,14 +181,17 @@ pub async fn create(
     let summary = state
         .compute()
         .run(move || {
+            // The body (and its claim on the upload buffer) lives until
+            // the job ends.
+            let bytes = &body.bytes;
             let limits = job_state.limits();
-            let scene = parse(&content_type, &bytes, &query, limits.max_triangles)?;
+            let scene = parse(&content_type, bytes, &query, limits.max_triangles)?;
             let triangles = scene.triangle_count();
             if triangles > limits.max_triangles {
                 return Err(too_many_triangles(triangles as u64, limits.max_triangles));
             }
             let registry = job_state.registry();
-            let slug = slug(&scene_name(&bytes, &content_type));
+            let slug = slug(&scene_name(bytes, &content_type));
             let reservation =
                 registry.reserve(query.id, &slug, triangles, limits.max_total_triangles)?;
             let id = reservation.id.clone();
@@ -255,44 +232,6 @@ fn digest_upload(content_type: &str, query: &CreateQuery, body: &[u8]) -> String
     }
     hash.update(body);
     hash.finalize().iter().map(|b| format!("{b:02x}")).collect()
-}
-
-/// Claims room for the body in the server's upload buffer before reading
-/// it: its declared length, or the most an upload may be without one. So
-/// concurrent uploads never buffer more than the budget in all.
-fn claim_upload_buffer(
-    state: &AppState,
-    headers: &HeaderMap,
-    limit: usize,
-) -> Result<tokio::sync::OwnedSemaphorePermit, ApiError> {
-    let declared = headers
-        .get(header::CONTENT_LENGTH)
-        .and_then(|v| v.to_str().ok()?.parse::<usize>().ok());
-    if declared.is_some_and(|n| n > limit) {
-        return Err(ApiError::BadBody {
-            status: StatusCode::PAYLOAD_TOO_LARGE,
-            detail: format!(
-                "the upload exceeds this server's limit of {} MiB",
-                state.limits().max_upload_mib
-            ),
-        });
-    }
-    let kib = declared.unwrap_or(limit).div_ceil(1024).max(1);
-    let budget = state.limits().max_buffered_upload_mib;
-    u32::try_from(kib)
-        .ok()
-        .and_then(|kib| {
-            state
-                .upload_buffer()
-                .clone()
-                .try_acquire_many_owned(kib)
-                .ok()
-        })
-        .ok_or_else(|| {
-            ApiError::UploadsBusy(format!(
-                "uploads in flight fill this server's {budget} MiB upload buffer; retry shortly"
-            ))
-        })
 }
 
 fn parse(
