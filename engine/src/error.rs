@@ -52,6 +52,8 @@ pub enum Error {
     Audio { path: String, reason: String },
     #[error("computation stopped at its deadline of {limit_ms} ms; nothing partial is returned")]
     DeadlineExceeded { limit_ms: u64 },
+    #[error("computation cancelled; nothing partial is returned")]
+    Cancelled,
 }
 
 impl Error {

@@ -180,7 +180,8 @@ mod cached {
         options: &SimulationOptions,
         cache: &mut BeamCache,
     ) -> bool {
-        let cached = simulate_cached(scene, sources, listeners, options, cache, None).unwrap();
+        let cached =
+            simulate_cached(scene, sources, listeners, options, cache, None, None).unwrap();
         assert_same(
             &cached,
             &simulate(scene, sources, listeners, options).unwrap(),
@@ -307,6 +308,40 @@ mod cached {
     }
 
     #[test]
+    fn a_cancelled_simulation_stops_at_once() {
+        let hall = AcousticScene::new(&bundled("hall-10k"));
+        // Conservative order 4 in the hall traces millions of frusta.
+        let options = options(4);
+        let (source, listener) = (Vec3::new(3.0, 12.0, 2.5), Vec3::new(22.0, 9.0, 1.7));
+        let cancel = frusta_engine::acoustics::Cancel::new();
+        let later = cancel.clone();
+        let stopper = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(50));
+            later.cancel();
+        });
+        let mut cache = BeamCache::default();
+        let start = Instant::now();
+        let e = simulate_cached(
+            &hall,
+            &[source],
+            &[listener],
+            &options,
+            &mut cache,
+            None,
+            Some(&cancel),
+        )
+        .unwrap_err();
+        stopper.join().unwrap();
+        assert!(matches!(e, Error::Cancelled), "{e}");
+        // Seconds of work would remain; it stopped within a few frusta.
+        assert!(
+            start.elapsed() < Duration::from_secs(3),
+            "{:?}",
+            start.elapsed()
+        );
+    }
+
+    #[test]
     fn a_deadline_stops_with_an_error_and_a_generous_one_changes_nothing() {
         let hall = AcousticScene::new(&bundled("hall-10k"));
         let sampled = SimulationOptions {
@@ -323,6 +358,7 @@ mod cached {
             &sampled,
             &mut cache,
             Some(soon),
+            None,
         )
         .unwrap_err();
         assert!(
@@ -341,6 +377,7 @@ mod cached {
             &options,
             &mut cache,
             Some(late),
+            None,
         )
         .unwrap();
         assert!(!cached[0].stats.beams_reused);

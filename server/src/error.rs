@@ -70,6 +70,8 @@ impl ApiError {
         match e {
             frusta_engine::Error::UnknownObject(o) => Self::UnknownObject(o),
             frusta_engine::Error::DeadlineExceeded { limit_ms } => Self::ComputeLimit { limit_ms },
+            // Only streams cancel, once their client has gone.
+            frusta_engine::Error::Cancelled => Self::Internal("computation cancelled".into()),
             e => Self::Invalid(e.to_string()),
         }
     }

@@ -8,7 +8,7 @@ use std::time::Instant;
 use frusta_engine::acoustics::signal::impulse_response::MAX_DURATION_S;
 use frusta_engine::acoustics::signal::Channels;
 use frusta_engine::acoustics::{
-    simulate_cached, simulate_until, BeamCache, Response, SimulationOptions,
+    simulate_cached, simulate_until, BeamCache, Cancel, Response, SimulationOptions,
 };
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -169,6 +169,7 @@ pub fn run(
     entry: &SceneEntry,
     request: &IrRequest,
     cache: Option<&mut BeamCache>,
+    cancel: Option<&Cancel>,
     limits: &Limits,
 ) -> Result<(u64, Vec<Response>), ApiError> {
     let live = entry.read();
@@ -180,7 +181,15 @@ pub fn run(
         &request.options,
     );
     let responses = match cache {
-        Some(cache) => simulate_cached(scene, sources, listeners, options, cache, Some(deadline)),
+        Some(cache) => simulate_cached(
+            scene,
+            sources,
+            listeners,
+            options,
+            cache,
+            Some(deadline),
+            cancel,
+        ),
         None => simulate_until(scene, sources, listeners, options, deadline),
     }
     .map_err(ApiError::from_engine)?;

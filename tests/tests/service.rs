@@ -440,3 +440,43 @@ fn half_sent_requests_are_cut_off_and_cannot_take_every_connection() {
     let (status, _, _) = get(&server.url("/healthz"));
     assert_eq!(status, 200);
 }
+
+#[test]
+fn a_stream_whose_client_leaves_gives_its_worker_back() {
+    let data = DataDir::new("cancel");
+    let server = Server::start(&data);
+    let hall = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/hall-10k.json"),
+    )
+    .expect("hall");
+    assert_eq!(post(&server.url("/v1/scenes?id=hall"), &hall).0, 201);
+    // One stream per simulation worker, each starting seconds of work
+    // (conservative cells, order 4, in the hall), then gone.
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get().min(4));
+    let expensive = json!({
+        "sources": [{"position": [3, 12, 2.5]}],
+        "listeners": [{"position": [22, 9, 1.7]}],
+        "options": {"max_order": 4, "sampling": 8, "cells": "conservative", "energy_threshold": 0}
+    });
+    for _ in 0..workers {
+        let (mut socket, _) =
+            tungstenite::connect(server.ws_url("/v1/scenes/hall/stream")).expect("connect");
+        socket
+            .send(Message::Text(expensive.to_string().into()))
+            .expect("send");
+        std::thread::sleep(Duration::from_millis(300));
+        drop(socket);
+    }
+    // Their work is cancelled: a small request is answered at once, not
+    // after the hall traces end.
+    let start = Instant::now();
+    assert_eq!(
+        post(&server.url("/v1/scenes/shoebox/impulse-responses"), IR).0,
+        200
+    );
+    assert!(
+        start.elapsed() < Duration::from_secs(4),
+        "waited {:?}",
+        start.elapsed()
+    );
+}

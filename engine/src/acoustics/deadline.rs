@@ -7,6 +7,7 @@
 //! stop within one frustum of each other.
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 use crate::{Error, Result};
@@ -14,11 +15,32 @@ use crate::{Error, Result};
 /// Frusta traced between two readings of the clock by one worker.
 pub(crate) const CLOCK_PERIOD: u64 = 64;
 
+/// Stops a running simulation from another thread: it returns
+/// [`Error::Cancelled`] within a frustum or so of [`Cancel::cancel`]. For
+/// work whose client has gone (a stream that closed).
+#[derive(Clone, Debug, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
 pub(crate) struct Deadline {
     at: Option<Instant>,
     /// The limit as the caller granted it, for the error message.
     limit_ms: u64,
     expired: AtomicBool,
+    cancel: Option<Cancel>,
 }
 
 impl Deadline {
@@ -36,6 +58,15 @@ impl Deadline {
             at,
             limit_ms,
             expired: AtomicBool::new(false),
+            cancel: None,
+        }
+    }
+
+    /// The same deadline, also ending when `cancel` is cancelled.
+    pub fn or_cancel(self, cancel: Option<&Cancel>) -> Self {
+        Self {
+            cancel: cancel.cloned(),
+            ..self
         }
     }
 
@@ -49,10 +80,13 @@ impl Deadline {
         self.expired()
     }
 
-    /// Only reads the flag some worker raised: an error once one saw the
-    /// deadline pass.
+    /// Only reads the flags: an error once a worker saw the deadline pass
+    /// or the work was cancelled.
     #[inline]
     pub fn expired(&self) -> Result<()> {
+        if self.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
+            return Err(Error::Cancelled);
+        }
         if self.expired.load(Ordering::Relaxed) {
             Err(Error::DeadlineExceeded {
                 limit_ms: self.limit_ms,
@@ -78,6 +112,12 @@ mod tests {
         assert!(d.expired().is_err());
         let far = Deadline::new(Some(start + Duration::from_secs(3600)), start);
         assert_eq!(far.check(), Ok(()));
+        let cancel = Cancel::new();
+        let cancellable = Deadline::none().or_cancel(Some(&cancel));
+        assert_eq!(cancellable.expired(), Ok(()));
+        cancel.cancel();
+        assert_eq!(cancellable.expired(), Err(Error::Cancelled));
+        assert_eq!(cancellable.check(), Err(Error::Cancelled));
         assert_eq!(Deadline::none().check(), Ok(()));
         assert!(Error::DeadlineExceeded { limit_ms: 40 }
             .to_string()

@@ -37,6 +37,7 @@ pub mod tracer;
 
 pub use beams::Beams;
 pub use cache::BeamCache;
+pub use deadline::Cancel;
 pub use propagation::{
     simulate, simulate_cached, simulate_until, Response, SimulationOptions, SoundPath,
 };

@@ -7,7 +7,7 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
-use super::deadline::Deadline;
+use super::deadline::{Cancel, Deadline};
 use super::path::ValidPath;
 use super::signal::{
     self, AirConditions, Arrival, ImpulseResponse, ImpulseResponseOptions, RoomParameters,
@@ -211,7 +211,7 @@ pub fn simulate(
     listeners: &[Vec3],
     options: &SimulationOptions,
 ) -> Result<Vec<Response>> {
-    simulate_with(scene, sources, listeners, options, None, None)
+    simulate_with(scene, sources, listeners, options, None, Deadline::none())
 }
 
 /// [`simulate`] that stops with [`Error::DeadlineExceeded`] past
@@ -223,7 +223,8 @@ pub fn simulate_until(
     options: &SimulationOptions,
     deadline: Instant,
 ) -> Result<Vec<Response>> {
-    simulate_with(scene, sources, listeners, options, None, Some(deadline))
+    let stop = Deadline::new(Some(deadline), Instant::now());
+    simulate_with(scene, sources, listeners, options, None, stop)
 }
 
 /// [`simulate`], reusing the beams `cache` holds for a source when the
@@ -231,7 +232,8 @@ pub fn simulate_until(
 /// [`revision`](AcousticScene::revision) are unchanged: moving listeners
 /// then cost no trace. The cache keeps the sources of this call only.
 ///
-/// Past `deadline` the call stops with [`Error::DeadlineExceeded`] and
+/// Past `deadline` the call stops with [`Error::DeadlineExceeded`], and
+/// once `cancel` is cancelled with [`Error::Cancelled`]; either way it
 /// returns nothing partial.
 pub fn simulate_cached(
     scene: &AcousticScene,
@@ -240,8 +242,11 @@ pub fn simulate_cached(
     options: &SimulationOptions,
     cache: &mut BeamCache,
     deadline: Option<Instant>,
+    cancel: Option<&Cancel>,
 ) -> Result<Vec<Response>> {
-    simulate_with(scene, sources, listeners, options, Some(cache), deadline)
+    let start = Instant::now();
+    let stop = Deadline::new(deadline, start).or_cancel(cancel);
+    simulate_with(scene, sources, listeners, options, Some(cache), stop)
 }
 
 /// Without a cache, tracing tests the listeners as it goes and keeps no
@@ -252,10 +257,9 @@ fn simulate_with(
     listeners: &[Vec3],
     options: &SimulationOptions,
     mut cache: Option<&mut BeamCache>,
-    deadline: Option<Instant>,
+    deadline: Deadline,
 ) -> Result<Vec<Response>> {
     let start = Instant::now();
-    let deadline = Deadline::new(deadline, start);
     let trace_options = options.trace_options()?;
     let bands = options.band_indices()?;
     let ir_options = ImpulseResponseOptions {

@@ -60,7 +60,7 @@ pub async fn create(
     let limits = state.limits().clone();
     let (revision, responses) = state
         .compute()
-        .run(move || simulation::run(&entry, &request, None, &limits))
+        .run(move || simulation::run(&entry, &request, None, None, &limits))
         .await??;
     let metrics = state.metrics();
     metrics.impulse_responses.inc_by(responses.len() as u64);

@@ -28,7 +28,7 @@ use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Path, State};
 use axum::response::Response;
 use axum::Extension;
-use frusta_engine::acoustics::{self, BeamCache};
+use frusta_engine::acoustics::{self, BeamCache, Cancel};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use tokio::sync::{mpsc, OwnedSemaphorePermit};
@@ -149,6 +149,9 @@ struct Stream {
     cache: Option<BeamCache>,
     /// The newest scene revision answered for.
     answered: Option<u64>,
+    /// Cancelled when the stream ends, so a job whose client has left
+    /// stops instead of holding a worker until it finishes.
+    cancel: Cancel,
 }
 
 impl Stream {
@@ -168,6 +171,7 @@ impl Stream {
             current: None,
             cache: Some(BeamCache::with_max_beams(max_beams)),
             answered: None,
+            cancel: Cancel::new(),
         }
     }
 
@@ -224,6 +228,7 @@ impl Stream {
                 }
             }
         }
+        self.cancel.cancel();
         self.state.metrics().streams.dec();
     }
 
@@ -296,6 +301,7 @@ impl Stream {
         };
         let state = self.state.clone();
         let entry = self.entry.clone();
+        let cancel = self.cancel.clone();
         let max_beams = cache.max_beams();
         tokio::spawn(async move {
             let job_state = state.clone();
@@ -317,7 +323,8 @@ impl Stream {
                     }
                     let (revision, responses) = match &request {
                         Some(r) => {
-                            simulation::run(&entry, r, Some(&mut cache), job_state.limits())?
+                            let cache = Some(&mut cache);
+                            simulation::run(&entry, r, cache, Some(&cancel), job_state.limits())?
                         }
                         None => (entry.read().revision, Vec::new()),
                     };
