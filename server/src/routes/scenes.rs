@@ -281,8 +281,8 @@ fn triangle_bound(document: &SceneDocument) -> u64 {
         .iter()
         .map(|o| match &o.mesh {
             MeshSpec::Inline(m) => m.triangles.len() as u64,
-            MeshSpec::BoxRoom(b) => 12 * u64::from(b.subdivisions).pow(2),
-            MeshSpec::LRoom(l) => 36 * u64::from(l.subdivisions).pow(3),
+            MeshSpec::BoxRoom(b) => 12u64.saturating_mul(u64::from(b.subdivisions).pow(2)),
+            MeshSpec::LRoom(l) => 36u64.saturating_mul(u64::from(l.subdivisions).saturating_pow(3)),
             // Fixed: two boxes, a wall and a door.
             MeshSpec::TwoRooms(_) => 200,
             // The generator lands within a few percent of its target.

@@ -49,11 +49,15 @@ fn checked_size(generator: &str, min: glam::Vec3, max: glam::Vec3) -> Result<gla
     Ok(size)
 }
 
-/// Subdivisions as a count, at least 1.
+/// Subdivisions as a count, checked to lie in `1..=MAX_SUBDIVISIONS`.
+/// Most subdivisions a generator takes: far past any triangle budget, and
+/// small enough that triangle counts (up to its cube) cannot overflow.
+const MAX_SUBDIVISIONS: u32 = 10_000;
+
 fn checked_subdivisions(generator: &str, subdivisions: u32) -> Result<u64> {
-    if subdivisions == 0 {
+    if !(1..=MAX_SUBDIVISIONS).contains(&subdivisions) {
         return Err(Error::InvalidScene(format!(
-            "{generator}.subdivisions is 0; it must be at least 1"
+            "{generator}.subdivisions is {subdivisions}; it must lie in 1..={MAX_SUBDIVISIONS}"
         )));
     }
     Ok(u64::from(subdivisions))
