@@ -61,6 +61,8 @@ pub fn recall_vs_time(rows: &[Row], path: &Path) -> Result<(), String> {
             (FONT, 24),
         )
         .margin(16)
+        // Room for the last time label, centred on the right edge.
+        .margin_right(48)
         .x_label_area_size(56)
         .y_label_area_size(72)
         .build_cartesian_2d((lo..hi).log_scale(), bottom.max(0.0)..1.02f64)
