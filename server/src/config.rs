@@ -94,6 +94,22 @@ pub struct Limits {
 }
 
 impl Limits {
+    /// Refuses settings under which the server could not work: an upload
+    /// larger than the upload buffer would be refused for ever, a zero
+    /// header timeout or connection cap would refuse every request.
+    pub fn check(&self) -> Result<(), String> {
+        if self.max_upload_mib > self.max_buffered_upload_mib {
+            return Err(format!(
+                "--max-upload-mib {} exceeds --max-buffered-upload-mib {}: such uploads could never be buffered",
+                self.max_upload_mib, self.max_buffered_upload_mib
+            ));
+        }
+        if self.header_timeout_s == 0 || self.max_connections == 0 {
+            return Err("--header-timeout-s and --max-connections must be at least 1".into());
+        }
+        Ok(())
+    }
+
     pub fn max_upload_bytes(&self) -> usize {
         self.max_upload_mib.saturating_mul(1024 * 1024)
     }

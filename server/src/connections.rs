@@ -74,6 +74,8 @@ pub async fn accept(
             }
         });
     }
+    // New clients are refused at once while the open connections finish.
+    drop(listener);
     connections.close();
     connections.wait().await;
 }

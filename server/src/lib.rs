@@ -34,6 +34,7 @@ use store::{SceneMeta, Store};
 /// and builds every stored scene. Blocking: call it before serving, or on a
 /// blocking thread.
 pub fn open(config: &Config) -> Result<AppState, String> {
+    config.limits.check()?;
     let store = Store::open(&config.data_dir)
         .map_err(|e| format!("cannot open {}: {e}", config.data_dir.display()))?;
     let seeded = store

@@ -159,55 +159,66 @@ pub async fn create(
     if let Some(id) = &query.id {
         check_id(id)?;
     }
-    // A retry of an upload that was stored (its answer lost, or a 504 that
-    // came while it finished) is answered with the stored scene.
-    let upload_digest = digest_upload(&content_type, &query, &body.bytes);
-    if let Some(entry) = query
-        .id
-        .as_ref()
-        .and_then(|id| state.registry().get(id).ok())
-    {
-        let same = entry.meta.owner == caller.key
-            && entry.meta.upload_digest.as_deref() == Some(upload_digest.as_str());
-        if same {
-            return Ok((
-                StatusCode::OK,
-                location(&entry.id),
-                Json(SceneSummary::new(&entry)),
-            ));
-        }
-    }
     let job_state = state.clone();
-    let summary = state
+    let (status, summary) = state
         .compute()
         .run(move || {
             // The body (and its claim on the upload buffer) lives until
-            // the job ends.
+            // the job ends; hashing and parsing it happen here, off the
+            // async runtime.
             let bytes = &body.bytes;
+            let registry = job_state.registry();
+            // A retry of an upload that was stored (its answer lost, or a
+            // 504 that came while it finished) gets the stored scene.
+            let upload_digest = digest_upload(&content_type, &query, bytes);
+            let replay = |id: &str| {
+                registry.get(id).ok().filter(|e| {
+                    e.meta.owner == caller.key
+                        && e.meta.upload_digest.as_deref() == Some(upload_digest.as_str())
+                })
+            };
+            if let Some(entry) = query.id.as_deref().and_then(replay) {
+                return Ok((StatusCode::OK, SceneSummary::new(&entry)));
+            }
             let limits = job_state.limits();
             let scene = parse(&content_type, bytes, &query, limits.max_triangles)?;
             let triangles = scene.triangle_count();
             if triangles > limits.max_triangles {
                 return Err(too_many_triangles(triangles as u64, limits.max_triangles));
             }
-            let registry = job_state.registry();
-            let slug = slug(&scene_name(bytes, &content_type));
-            let reservation =
-                registry.reserve(query.id, &slug, triangles, limits.max_total_triangles)?;
+            let slug = match &query.id {
+                Some(_) => String::new(),
+                None => slug(&scene_name(bytes, &content_type)),
+            };
+            let max_total = limits.max_total_triangles;
+            let reservation = match registry.reserve(query.id.clone(), &slug, triangles, max_total)
+            {
+                // The same upload, sent twice, stored while this one parsed.
+                Err(ApiError::SceneExists(id)) => {
+                    return match replay(&id) {
+                        Some(entry) => Ok((StatusCode::OK, SceneSummary::new(&entry))),
+                        None => Err(ApiError::SceneExists(id)),
+                    }
+                }
+                reservation => reservation?,
+            };
             let id = reservation.id.clone();
             let meta = SceneMeta {
                 owner: caller.key.clone(),
                 created_unix_ms: now_unix_ms(),
                 bundled: false,
-                upload_digest: Some(upload_digest),
+                upload_digest: Some(upload_digest.clone()),
             };
             registry.create(reservation, meta, scene)?;
-            Ok(SceneSummary::new(registry.get(&id)?.as_ref()))
+            Ok((
+                StatusCode::CREATED,
+                SceneSummary::new(registry.get(&id)?.as_ref()),
+            ))
         })
         .await??;
     state.refresh_scene_gauges();
     let headers = location(&summary.id);
-    Ok((StatusCode::CREATED, headers, Json(summary)))
+    Ok((status, headers, Json(summary)))
 }
 
 fn location(id: &str) -> HeaderMap {
@@ -313,12 +324,17 @@ fn check_id(id: &str) -> Result<(), ApiError> {
     }
 }
 
-/// The document's `name`, if the upload is a JSON document that has one.
+/// The document's `name`, if the upload is a JSON document that has one
+/// (read without building the rest: serde skips the other fields).
 fn scene_name(bytes: &[u8], content_type: &str) -> String {
+    #[derive(Deserialize)]
+    struct Named {
+        name: Option<String>,
+    }
     let name = (content_type == "application/json")
-        .then(|| serde_json::from_slice::<serde_json::Value>(bytes).ok())
+        .then(|| serde_json::from_slice::<Named>(bytes).ok())
         .flatten()
-        .and_then(|v| v.get("name").and_then(|n| n.as_str()).map(str::to_owned));
+        .and_then(|n| n.name);
     name.unwrap_or_else(|| "scene".into())
 }
 

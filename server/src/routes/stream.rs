@@ -122,7 +122,11 @@ pub async fn connect(
 struct Pending {
     seq: Option<u64>,
     request: Option<IrRequest>,
-    objects: Vec<(String, ObjectEdit)>,
+    /// At most one edit per object, keyed by index (so `"panel"` and `"1"`
+    /// are one object): later moves merge into it, newest value of each
+    /// field winning, so a client outpacing the engine queues only the
+    /// latest state.
+    objects: Vec<(usize, ObjectEdit)>,
     /// Something changed since the last answer.
     dirty: bool,
 }
@@ -255,9 +259,8 @@ impl Stream {
         let mut edits = Vec::new();
         for m in update.objects.unwrap_or_default() {
             self.caller.may_change(&self.entry.meta)?;
-            // Named objects only: the pending edits stay one per object.
-            object_index(&self.entry, &m.object)?;
-            edits.push((m.object, m.patch.to_edit()?));
+            let index = object_index(&self.entry, &m.object)?;
+            edits.push((index, m.patch.to_edit()?));
         }
         let request = match (sources, listeners) {
             (Some(sources), Some(listeners)) => {
@@ -308,15 +311,12 @@ impl Stream {
             let job = move || {
                 let start = Instant::now();
                 let result = (|| {
-                    let edits = pending
-                        .objects
-                        .iter()
-                        .map(|(object, edit)| Ok((object_index(&entry, object)?, edit.clone())))
-                        .collect::<Result<Vec<_>, ApiError>>()?;
-                    let objects = if edits.is_empty() {
+                    let objects = if pending.objects.is_empty() {
                         Vec::new()
                     } else {
-                        job_state.registry().edit_objects(&entry, &edits)?
+                        job_state
+                            .registry()
+                            .edit_objects(&entry, &pending.objects)?
                     };
                     for report in &objects {
                         job_state.metrics().count_update(report.action);
@@ -435,8 +435,14 @@ mod tests {
         assert!(stream.merge(ghost).is_err());
         assert_eq!(stream.pending.seq, Some(9));
         assert_eq!(stream.pending.objects.len(), 1);
+        // "1" is the panel too.
+        stream
+            .merge(r#"{"objects": [{"object": "1", "rotation": [0, 0, 0, 1]}]}"#)
+            .unwrap();
+        assert_eq!(stream.pending.objects.len(), 1);
         let (object, edit) = &stream.pending.objects[0];
-        assert_eq!(object, "panel");
+        assert_eq!(*object, 1);
+        assert_eq!(edit.rotation, Some([0.0, 0.0, 0.0, 1.0]));
         assert_eq!(edit.translation, Some([0.0, 1.0, 0.0]));
         let top = edit.vertices.as_ref().unwrap()[2].z;
         assert!((top - 2.299).abs() < 1e-6, "{top}");
