@@ -37,6 +37,8 @@ pub struct SceneEntry {
     /// The objects' names in index order; objects are never added or
     /// removed, so these are read without the scene's lock.
     pub object_names: Vec<String>,
+    /// The objects' vertex counts, as fixed as their names.
+    pub object_vertices: Vec<usize>,
     live: RwLock<LiveScene>,
     /// Streams watch this to recompute when someone else edits the scene;
     /// it closes when the scene is deleted.
@@ -258,6 +260,11 @@ impl Registry {
             id: id.clone(),
             meta,
             object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
+            object_vertices: scene
+                .objects
+                .iter()
+                .map(|o| o.mesh.vertex_count())
+                .collect(),
             live: RwLock::new(LiveScene {
                 scene,
                 acoustic,
@@ -278,8 +285,11 @@ impl Registry {
         scenes.insert(id, Arc::new(entry));
     }
 
-    pub fn delete(&self, id: &str) -> Result<(), ApiError> {
-        let entry = self.get(id)?;
+    /// Deletes the scene `entry` is (the one whose owner the caller
+    /// checked): if it is gone already, even if its id was taken again
+    /// since, nothing is deleted and the answer is 404.
+    pub fn delete(&self, entry: &SceneEntry) -> Result<(), ApiError> {
+        let id = entry.id.as_str();
         // Hold the scene's lock so no edit lands between the two steps.
         let mut live = entry.write();
         if live.deleted {
@@ -542,7 +552,14 @@ mod tests {
         let registry = server.state.registry();
         // The edit looked the scene up before the delete ran.
         let entry = registry.get("box").unwrap();
-        registry.delete("box").unwrap();
+        registry.delete(&entry).unwrap();
+        // A second delete of the same entry finds it gone, even once the id
+        // is taken again.
+        let fresh = server.send(post_json("/v1/scenes?id=box", BOX_DOC));
+        assert_eq!(fresh.await.0, StatusCode::CREATED);
+        let e = registry.delete(&entry);
+        assert!(matches!(e, Err(crate::error::ApiError::SceneNotFound(_))));
+        registry.delete(&registry.get("box").unwrap()).unwrap();
         let material = frusta_engine::scene::Material::uniform("walls", 0.5).unwrap();
         let e = registry.edit_materials(&entry, vec![material]);
         assert!(matches!(e, Err(crate::error::ApiError::SceneNotFound(_))));

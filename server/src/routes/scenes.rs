@@ -377,7 +377,7 @@ pub async fn delete(
     let job_state = state.clone();
     state
         .compute()
-        .run(move || job_state.registry().delete(&id))
+        .run(move || job_state.registry().delete(&entry))
         .await??;
     state.refresh_scene_gauges();
     Ok(StatusCode::NO_CONTENT)

@@ -260,7 +260,18 @@ impl Stream {
         for m in update.objects.unwrap_or_default() {
             self.caller.may_change(&self.entry.meta)?;
             let index = object_index(&self.entry, &m.object)?;
-            edits.push((index, m.patch.to_edit()?));
+            let edit = m.patch.to_edit()?;
+            // Checked here, so one bad update cannot sink the earlier ones
+            // it would be merged with.
+            let expected = self.entry.object_vertices[index];
+            if let Some(actual) = edit.vertices.as_ref().map(Vec::len) {
+                if actual != expected {
+                    return Err(ApiError::from_engine(
+                        frusta_engine::Error::VertexCountMismatch { expected, actual },
+                    ));
+                }
+            }
+            edits.push((index, edit));
         }
         let request = match (sources, listeners) {
             (Some(sources), Some(listeners)) => {
@@ -430,6 +441,9 @@ mod tests {
         stream
             .merge(r#"{"seq": 9, "objects": [{"object": "panel", "translation": [0, 1, 0]}]}"#)
             .unwrap();
+        // A wrong vertex count is refused when it arrives.
+        let short = r#"{"seq": 10, "objects": [{"object": "panel", "vertices": [[0, 0, 0]]}]}"#;
+        assert!(stream.merge(short).is_err());
         // An update naming no object of the scene changes nothing.
         let ghost = r#"{"seq": 10, "objects": [{"object": "ghost", "translation": [0, 1, 0]}]}"#;
         assert!(stream.merge(ghost).is_err());
