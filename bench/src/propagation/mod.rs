@@ -188,14 +188,7 @@ pub fn run(args: Args) -> Result<(), String> {
                         ),
                         threads,
                         paths: traced.len(),
-                        reference: None,
-                        exact: None,
-                        recall: None,
-                        false_paths: None,
-                        max_time_error_s: None,
-                        max_energy_error_db: None,
-                        total_energy_error_db: None,
-                        duplicates: None,
+                        ..Row::default()
                     };
                     if let Some(r) = &at.independent {
                         row.set(compare::against_independent(
@@ -326,22 +319,13 @@ fn peer_row(o: &pyroom::Outcome, case: &PeerCase) -> Row {
         triangles: case.triangles,
         walls: Some(o.walls),
         order: o.order,
-        sampling: None,
-        frusta: None,
         time_ms: o.ms,
         reference_ms: case.reference.as_ref().map(|r| r.1),
         exhaustive_ms: case.exhaustive_ms,
-        frusta_per_s_per_thread: None,
         threads: 1,
         paths: o.paths,
-        reference: None,
-        exact: None,
-        recall: None,
-        false_paths: None,
-        max_time_error_s: None,
-        max_energy_error_db: None,
-        total_energy_error_db: None,
         duplicates: Some(o.duplicates),
+        ..Row::default()
     };
     if let Some((paths, _)) = &case.reference {
         let (matched, unmatched) = compare::peer_images(&o.image_sources, paths);

@@ -5,8 +5,9 @@ use serde::{Deserialize, Serialize};
 
 use super::compare::Comparison;
 
-/// One run: ours at (order, N, cell mode), or the peer at an order.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+/// One run: ours at (order, N, cell mode), or the peer at an order. The
+/// comparison fields start empty ([`Row::set`] fills them).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Row {
     pub scene: String,
     /// `frusta` (conservative cells), `frusta-sampled`, `pyroomacoustics`
