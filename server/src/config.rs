@@ -136,3 +136,28 @@ impl Config {
         config
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_that_could_never_work_are_refused() {
+        let ok = Config::with_data_dir("unused").limits;
+        assert!(ok.check().is_ok());
+        let mut big_upload = ok.clone();
+        big_upload.max_upload_mib = big_upload.max_buffered_upload_mib + 1;
+        assert!(big_upload
+            .check()
+            .unwrap_err()
+            .contains("--max-buffered-upload-mib"));
+        for tweak in [
+            |l: &mut Limits| l.header_timeout_s = 0,
+            |l: &mut Limits| l.max_connections = 0,
+        ] {
+            let mut bad = ok.clone();
+            tweak(&mut bad);
+            assert!(bad.check().is_err());
+        }
+    }
+}
