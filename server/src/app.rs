@@ -132,6 +132,9 @@ impl AppState {
         (name = "acoustics", description = "Impulse responses and streams"),
         (name = "queries", description = "Ray and visibility queries"),
     ),
+    // A stream's messages travel after the upgrade, so no operation
+    // names them; they are listed for clients.
+    components(schemas(crate::routes::stream::StreamUpdate)),
     modifiers(&BearerAuth)
 )]
 struct ApiDoc;

@@ -15,6 +15,7 @@ mod error;
 mod metrics;
 mod registry;
 mod routes;
+mod schema;
 mod simulation;
 mod store;
 

@@ -17,12 +17,14 @@ use serde_json::{Map, Value};
 use crate::config::Limits;
 use crate::error::ApiError;
 use crate::registry::SceneEntry;
+use crate::schema::Vector3;
 
 /// A source or listener.
 #[derive(Clone, Debug, Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Point {
     /// `[x, y, z]` in metres.
+    #[schema(value_type = Vector3)]
     pub position: [f32; 3],
 }
 

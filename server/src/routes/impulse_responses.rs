@@ -13,6 +13,7 @@ use utoipa::ToSchema;
 
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
+use crate::schema::{Binary, ImpulseResponseRequest};
 use crate::simulation::{self, IrRequest, PairJson};
 
 #[derive(Serialize, ToSchema)]
@@ -32,10 +33,10 @@ pub struct ImpulseResponses<'a> {
 /// `Accept: audio/wav` for the samples of a single pair.
 #[utoipa::path(post, path = "/v1/scenes/{id}/impulse-responses", tag = "acoustics",
     params(("id" = String, Path, description = "Scene id")),
-    request_body(content = Object, description = "Sources, listeners and simulation options"),
+    request_body(content = ImpulseResponseRequest),
     responses(
-        (status = 200, body = ImpulseResponses, content_type = "application/json"),
-        (status = 200, description = "One pair's impulse response", content_type = "audio/wav"),
+        (status = 200, description = "Every pair's paths, parameters and samples as JSON, or with `Accept: audio/wav` one pair's impulse response",
+            content((ImpulseResponses = "application/json"), (Binary = "audio/wav"))),
         (status = 404, body = Problem, content_type = "application/problem+json"),
         (status = 422, body = Problem, content_type = "application/problem+json"),
         (status = 503, body = Problem, content_type = "application/problem+json")),

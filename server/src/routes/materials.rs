@@ -12,6 +12,7 @@ use utoipa::ToSchema;
 use crate::app::AppState;
 use crate::auth::Caller;
 use crate::error::{ApiError, JsonBody, Problem};
+use crate::schema::MaterialsPatch;
 
 #[derive(Serialize, ToSchema)]
 pub struct MaterialsEdited {
@@ -24,7 +25,7 @@ pub struct MaterialsEdited {
 /// as in the scene document.
 #[utoipa::path(patch, path = "/v1/scenes/{id}/materials", tag = "scenes",
     params(("id" = String, Path, description = "Scene id")),
-    request_body(content = Object, description = "`{\"materials\": {name: material}}` as in the scene document"),
+    request_body(content = MaterialsPatch, description = "Materials as in the scene document: new names are added, known ones changed"),
     responses((status = 200, body = MaterialsEdited), (status = 422, body = Problem, content_type = "application/problem+json")),
     security((), ("api_key" = [])))]
 pub async fn patch(

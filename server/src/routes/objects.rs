@@ -15,17 +15,21 @@ use crate::auth::Caller;
 use crate::error::{ApiError, Problem};
 use crate::registry::{EditReport, ObjectEdit, SceneEntry};
 use crate::routes::large_body;
+use crate::schema::{Binary, Quaternion, Vector3};
 
 /// Omitted parts stay as they are.
 #[derive(Clone, Debug, Default, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectPatch {
     /// Quaternion `[x, y, z, w]` (normalised by the server).
+    #[schema(value_type = Option<Quaternion>)]
     pub rotation: Option<[f32; 4]>,
     /// `[x, y, z]` in metres.
+    #[schema(value_type = Option<Vector3>)]
     pub translation: Option<[f32; 3]>,
     /// Every vertex's new position in the object's frame, in the mesh's
     /// vertex order (the count cannot change).
+    #[schema(value_type = Option<Vec<Vector3>>, min_items = 1)]
     pub vertices: Option<Vec<[f32; 3]>>,
 }
 
@@ -95,7 +99,7 @@ pub const BODY_LIMIT: usize = 64 << 20;
 #[utoipa::path(patch, path = "/v1/scenes/{id}/objects/{object}", tag = "scenes",
     params(("id" = String, Path, description = "Scene id"), ("object" = String, Path, description = "Object name or index")),
     request_body(description = "JSON, or the vertex positions alone as application/octet-stream (little-endian f32 x, y, z per vertex)",
-        content((ObjectPatch = "application/json"), (Vec<u8> = "application/octet-stream"))),
+        content((ObjectPatch = "application/json"), (Binary = "application/octet-stream"))),
     responses((status = 200, body = EditReport), (status = 404, body = Problem, content_type = "application/problem+json"),
         (status = 422, body = Problem, content_type = "application/problem+json")),
     security((), ("api_key" = [])))]

@@ -11,6 +11,7 @@ use utoipa::ToSchema;
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
 use crate::routes::rays::MAX_RAYS;
+use crate::schema::Vector3;
 
 #[derive(Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -21,7 +22,9 @@ pub struct OcclusionRequest {
 #[derive(Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PointPair {
+    #[schema(value_type = Vector3)]
     from: [f32; 3],
+    #[schema(value_type = Vector3)]
     to: [f32; 3],
 }
 

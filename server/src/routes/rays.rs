@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
+use crate::schema::Vector3;
 
 /// Upper bound on rays per request, so one request cannot monopolise the
 /// compute pool or memory.
@@ -31,8 +32,13 @@ pub struct RaysRequest {
 #[derive(Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 struct RayInput {
+    #[schema(value_type = Vector3)]
     origin: [f32; 3],
+    /// Need not be unit length; not zero.
+    #[schema(value_type = Vector3)]
     direction: [f32; 3],
+    /// Along `direction` normalised, metres; omitted or null: unbounded.
+    #[schema(minimum = 0.0)]
     max_distance: Option<f32>,
 }
 
@@ -60,7 +66,9 @@ pub struct HitOutput {
     object: u32,
     object_name: String,
     triangle: u32,
+    #[schema(value_type = Vector3)]
     point: [f32; 3],
+    #[schema(value_type = Vector3)]
     normal: [f32; 3],
     material: String,
 }

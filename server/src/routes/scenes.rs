@@ -16,6 +16,7 @@ use crate::auth::Caller;
 use crate::error::{ApiError, Problem};
 use crate::registry::{now_unix_ms, SceneEntry};
 use crate::routes::large_body;
+use crate::schema::{Binary, Quaternion, SceneUpload, Vector3};
 use crate::store::SceneMeta;
 
 #[derive(Serialize, ToSchema)]
@@ -26,7 +27,9 @@ pub struct ObjectSummary {
     vertices: usize,
     dynamic: bool,
     /// Quaternion `[x, y, z, w]`.
+    #[schema(value_type = Quaternion)]
     rotation: [f32; 4],
+    #[schema(value_type = Vector3)]
     translation: [f32; 3],
 }
 
@@ -140,7 +143,8 @@ pub struct CreateQuery {
 /// generated meshes, no file references), or an OBJ (`model/obj`) or glTF
 /// (`model/gltf-binary`, `model/gltf+json`) mesh as one object.
 #[utoipa::path(post, path = "/v1/scenes", tag = "scenes", params(CreateQuery),
-    request_body(content = String, description = "Scene document, OBJ or glTF", content_type = "application/json"),
+    request_body(description = "A scene document, or one mesh as OBJ or glTF",
+        content((SceneUpload = "application/json"), (String = "model/obj"), (Binary = "model/gltf-binary"), (Object = "model/gltf+json"))),
     responses((status = 201, body = SceneSummary),
         (status = 200, body = SceneSummary, description = "This exact upload was stored under this id before: a retry, answered with the stored scene"),
         (status = 409, body = Problem, content_type = "application/problem+json"),

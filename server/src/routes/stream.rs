@@ -50,7 +50,7 @@ pub struct StreamUpdate {
     sources: Option<Vec<Point>>,
     listeners: Option<Vec<Point>>,
     /// Simulation options, as in the impulse-response route.
-    #[schema(value_type = Object)]
+    #[schema(value_type = Option<Object>)]
     options: Option<Value>,
     objects: Option<Vec<ObjectMove>>,
 }
@@ -87,8 +87,8 @@ struct ErrorFrame<'a> {
 
 /// Opens a stream; see the module documentation for the protocol.
 #[utoipa::path(get, path = "/v1/scenes/{id}/stream", tag = "acoustics",
+    description = "A WebSocket: the client sends `StreamUpdate` messages (text), the server answers with impulse responses as they change; see the README",
     params(("id" = String, Path, description = "Scene id")),
-    request_body(content = StreamUpdate, description = "Sent as WebSocket text messages after the upgrade"),
     responses((status = 101, description = "Switching to the WebSocket protocol"),
         (status = 404, body = Problem, content_type = "application/problem+json"),
         (status = 503, body = Problem, content_type = "application/problem+json")),
