@@ -14,7 +14,7 @@ use glam::Vec3;
 use tokio::sync::watch;
 
 use crate::error::ApiError;
-use crate::store::{SceneMeta, Store, StoredScene};
+use crate::store::{ObjectOverlay, SceneMeta, Store, StoredScene};
 
 /// A scene as served: the engine scene (what is persisted) and its
 /// acoustic form (what is queried), always in step.
@@ -335,20 +335,21 @@ impl Registry {
             .iter()
             .map(|(object, edit)| prepare(&live, *object, edit))
             .collect::<Result<Vec<_>, _>>()?;
+        let overlays: Vec<ObjectOverlay<'_>> = edits
+            .iter()
+            .zip(&prepared)
+            .map(|(&(object, _), (transform, mesh))| ObjectOverlay {
+                object: object as u32,
+                transform: transform.as_ref(),
+                positions: mesh.as_ref().map(|m| m.positions()),
+            })
+            .collect();
+        self.store
+            .put_object_edits(&entry.id, &overlays)
+            .map_err(ApiError::storage)?;
         let mut reports = Vec::with_capacity(prepared.len());
         for (&(object, _), (transform, mesh)) in edits.iter().zip(prepared) {
             let start = Instant::now();
-            let index = object as u32;
-            if let Some(t) = &transform {
-                self.store
-                    .put_transform(&entry.id, index, t)
-                    .map_err(ApiError::storage)?;
-            }
-            if let Some(m) = &mesh {
-                self.store
-                    .put_positions(&entry.id, index, m.positions())
-                    .map_err(ApiError::storage)?;
-            }
             let mut update: Option<UpdateReport> = None;
             if let Some(t) = transform {
                 live.acoustic

@@ -58,6 +58,13 @@ pub struct SceneMeta {
     pub upload_digest: Option<String>,
 }
 
+/// One object's edit as stored: what changed of it.
+pub struct ObjectOverlay<'a> {
+    pub object: u32,
+    pub transform: Option<&'a RigidTransform>,
+    pub positions: Option<&'a [Vec3]>,
+}
+
 /// A scene as read back at startup.
 pub struct StoredScene {
     pub id: String,
@@ -124,24 +131,26 @@ impl Store {
         })
     }
 
-    pub fn put_transform(&self, id: &str, object: u32, t: &RigidTransform) -> StoreResult<()> {
-        let bytes = serde_json::to_vec(t).expect("transform serialises");
+    /// Stores object edits (new transforms and vertex positions) in one
+    /// transaction: after a crash, all of them are stored or none.
+    pub fn put_object_edits(&self, id: &str, edits: &[ObjectOverlay<'_>]) -> StoreResult<()> {
         self.write(|txn| {
-            txn.open_table(TRANSFORMS)?
-                .insert((id, object), bytes.as_slice())?;
-            Ok(())
-        })
-    }
-
-    pub fn put_positions(&self, id: &str, object: u32, positions: &[Vec3]) -> StoreResult<()> {
-        let bytes: Vec<u8> = positions
-            .iter()
-            .flat_map(|p| p.to_array())
-            .flat_map(f32::to_le_bytes)
-            .collect();
-        self.write(|txn| {
-            txn.open_table(POSITIONS)?
-                .insert((id, object), bytes.as_slice())?;
+            let mut transforms = txn.open_table(TRANSFORMS)?;
+            let mut positions = txn.open_table(POSITIONS)?;
+            for edit in edits {
+                if let Some(t) = edit.transform {
+                    let bytes = serde_json::to_vec(t).expect("transform serialises");
+                    transforms.insert((id, edit.object), bytes.as_slice())?;
+                }
+                if let Some(p) = edit.positions {
+                    let bytes: Vec<u8> = p
+                        .iter()
+                        .flat_map(|p| p.to_array())
+                        .flat_map(f32::to_le_bytes)
+                        .collect();
+                    positions.insert((id, edit.object), bytes.as_slice())?;
+                }
+            }
             Ok(())
         })
     }
@@ -246,10 +255,24 @@ mod tests {
                 .expect("put");
             store.put_scene("b", &meta(), "{}").expect("put");
             let t = RigidTransform::from_translation(Vec3::new(1.0, 2.0, 3.0));
-            store.put_transform("a", 1, &t).expect("transform");
+            let positions = [Vec3::X, Vec3::new(0.5, -2.0, 1e-7)];
             store
-                .put_positions("a", 0, &[Vec3::X, Vec3::new(0.5, -2.0, 1e-7)])
-                .expect("positions");
+                .put_object_edits(
+                    "a",
+                    &[
+                        ObjectOverlay {
+                            object: 1,
+                            transform: Some(&t),
+                            positions: None,
+                        },
+                        ObjectOverlay {
+                            object: 0,
+                            transform: None,
+                            positions: Some(&positions),
+                        },
+                    ],
+                )
+                .expect("edits");
             store.delete_scene("b").expect("delete");
         }
         let store = Store::open(&dir).expect("reopen");
@@ -276,8 +299,13 @@ mod tests {
         let t = RigidTransform::from_translation(Vec3::Z);
         store.put_scene("a", &meta(), "old").expect("put");
         store.put_scene("ab", &meta(), "other").expect("put");
-        store.put_transform("a", 0, &t).expect("transform");
-        store.put_transform("ab", 0, &t).expect("transform");
+        let moved = [ObjectOverlay {
+            object: 0,
+            transform: Some(&t),
+            positions: None,
+        }];
+        store.put_object_edits("a", &moved).expect("transform");
+        store.put_object_edits("ab", &moved).expect("transform");
         store.put_scene("a", &meta(), "new").expect("replace");
         let scenes = store.load_all().expect("load");
         std::fs::remove_dir_all(&dir).expect("clean up");
