@@ -1,20 +1,106 @@
-//! `kill -9` in the middle of writes loses nothing the server acknowledged
-//! and corrupts nothing: the real binary, killed and restarted on the same
-//! data directory.
+//! Every kind of write survives `kill -9` and a plain restart: the real
+//! binary, stopped in the middle of a seeded random mix of writes (JSON and
+//! OBJ uploads, moves, rotations, JSON and binary vertex edits, material
+//! edits, stream object moves, deletes) and restarted on the same data
+//! directory, serves exactly what it acknowledged.
+//!
+//! A model of every scene is kept beside the server. The stop may land
+//! after the server stored a write but before this client read the answer,
+//! so the one write in flight may or may not be there; everything else must
+//! match the model exactly.
 
+use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-const DOC: &str = r#"{"materials": {"walls": {"absorption": 0.2}}, "objects": [
-  {"name": "room", "material": "walls", "mesh": {"box_room": {"min": [0, 0, 0], "max": [6, 5, 3], "subdivisions": 8}}},
+use serde_json::Value;
+
+/// A 6 x 5 x 3 m room; a door (a 1 x 2 m quad in the plane x = 3 of its
+/// frame, which vertex edits shift along x and moves shift along y and z),
+/// and a small panel far from the door, which rotations turn in place.
+const ROOM: &str = r#"{"materials": {"walls": {"absorption": 0.2}}, "objects": [
+  {"name": "room", "material": "walls", "mesh": {"box_room": {"min": [0, 0, 0], "max": [6, 5, 3], "subdivisions": 2}}},
   {"name": "door", "material": "walls", "dynamic": true,
-   "mesh": {"vertices": [[3, 1, 0], [3, 2, 0], [3, 2, 2], [3, 1, 2]], "triangles": [[0, 1, 2], [0, 2, 3]]}}]}"#;
+   "mesh": {"vertices": [[3, 1, 0], [3, 2, 0], [3, 2, 2], [3, 1, 2]], "triangles": [[0, 1, 2], [0, 2, 3]]}},
+  {"name": "panel", "material": "walls", "dynamic": true, "transform": {"translation": [5, 4, 2.5]},
+   "mesh": {"vertices": [[-0.1, -0.1, 0], [0.1, -0.1, 0], [0.1, 0.1, 0]], "triangles": [[0, 1, 2]]}}]}"#;
+
+const OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n";
+
+/// What a scene should hold.
+#[derive(Clone, Debug, PartialEq)]
+enum Model {
+    Absent,
+    /// An OBJ upload: one object, four triangles.
+    Mesh,
+    Room(Room),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct Room {
+    /// The door's translation (y, z).
+    door_yz: [f32; 2],
+    /// How far vertex edits moved the door along x.
+    door_dx: f32,
+    panel_rotation: [f32; 4],
+    /// Materials added by edits, in order.
+    added_materials: Vec<String>,
+}
+
+impl Room {
+    fn new() -> Self {
+        Self {
+            door_yz: [0.0, 0.0],
+            door_dx: 0.0,
+            panel_rotation: [0.0, 0.0, 0.0, 1.0],
+            added_materials: Vec::new(),
+        }
+    }
+
+    /// The door's four vertices for a shift `dx`.
+    fn door_vertices(dx: f32) -> [[f32; 3]; 4] {
+        let x = 3.0 + dx;
+        [[x, 1.0, 0.0], [x, 2.0, 0.0], [x, 2.0, 2.0], [x, 1.0, 2.0]]
+    }
+}
+
+/// What the client knows: every acknowledged state, and the one write
+/// sent but not yet answered (its scene and the state it leads to).
+#[derive(Default)]
+struct Ledger {
+    confirmed: BTreeMap<String, Model>,
+    in_flight: Option<(String, Model)>,
+    next_id: usize,
+}
+
+/// xorshift64*: a seeded stream, so a failing mix can be replayed.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+
+    /// A multiple of 1/64 in [-max, max]: exact in f32 and in JSON.
+    fn offset(&mut self, max: f32) -> f32 {
+        let steps = (max * 64.0) as i64;
+        (self.below((2 * steps + 1) as usize) as i64 - steps) as f32 / 64.0
+    }
+}
 
 /// Starts the server; returns it and its address, read from its log.
-fn start(dir: &std::path::Path) -> (Child, String) {
+fn start(dir: &Path) -> (Child, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_frusta-server"))
         .args(["--addr", "127.0.0.1:0", "--data-dir"])
         .arg(dir.join("data"))
@@ -38,16 +124,7 @@ fn start(dir: &std::path::Path) -> (Child, String) {
     };
     // Keep draining the log so the server never blocks on a full pipe.
     std::thread::spawn(move || lines.for_each(drop));
-    (child, format!("http://{addr}"))
-}
-
-/// One uploaded scene: the door position the server confirmed, and the one
-/// sent after it, if any (equal to `confirmed` once that move is answered).
-#[derive(Clone)]
-struct Door {
-    scene: String,
-    confirmed: f64,
-    in_flight: f64,
+    (child, addr)
 }
 
 fn agent() -> ureq::Agent {
@@ -58,100 +135,342 @@ fn agent() -> ureq::Agent {
         .into()
 }
 
+/// A write's outcome: answered with success, refused (a bug: every write
+/// here is valid), or cut off by the stop.
+enum Sent {
+    Done,
+    Refused(String),
+    Cut,
+}
+
+fn http(result: Result<ureq::http::Response<ureq::Body>, ureq::Error>) -> Sent {
+    match result {
+        Ok(r) if r.status().is_success() => Sent::Done,
+        Ok(mut r) => Sent::Refused(format!(
+            "{}: {}",
+            r.status(),
+            r.body_mut().read_to_string().unwrap_or_default()
+        )),
+        Err(_) => Sent::Cut,
+    }
+}
+
+/// Moves the door over a stream, acknowledged by `objects_updated`.
+fn stream_move(addr: &str, id: &str, yz: [f32; 2]) -> Sent {
+    let Ok((mut socket, _)) = tungstenite::connect(format!("ws://{addr}/v1/scenes/{id}/stream"))
+    else {
+        return Sent::Cut;
+    };
+    let update =
+        serde_json::json!({"objects": [{"object": "door", "translation": [0.0, yz[0], yz[1]]}]});
+    if socket
+        .send(tungstenite::Message::text(update.to_string()))
+        .is_err()
+    {
+        return Sent::Cut;
+    }
+    loop {
+        match socket.read() {
+            Ok(tungstenite::Message::Text(text)) => {
+                let answer: Value = serde_json::from_str(&text).expect("JSON answer");
+                let _ = socket.close(None);
+                return match answer["type"].as_str() {
+                    Some("objects_updated") => Sent::Done,
+                    _ => Sent::Refused(text.to_string()),
+                };
+            }
+            Ok(_) => continue,
+            Err(_) => return Sent::Cut,
+        }
+    }
+}
+
+/// One random write: picks it, records it as in flight, sends it.
+fn write_one(rng: &mut Rng, ledger: &Mutex<Ledger>, agent: &ureq::Agent, addr: &str) -> Sent {
+    let base = format!("http://{addr}/v1/scenes");
+    let (id, before) = {
+        let mut l = ledger.lock().expect("ledger");
+        let live: Vec<(String, Model)> = l
+            .confirmed
+            .iter()
+            .filter(|(_, m)| **m != Model::Absent)
+            .map(|(id, m)| (id.clone(), m.clone()))
+            .collect();
+        if live.len() < 3 || rng.below(8) == 0 {
+            l.next_id += 1;
+            (format!("s{}", l.next_id), Model::Absent)
+        } else {
+            live[rng.below(live.len())].clone()
+        }
+    };
+    let record = |after: &Model| {
+        ledger.lock().expect("ledger").in_flight = Some((id.clone(), after.clone()));
+    };
+    let (after, sent) = match before {
+        Model::Absent if rng.below(4) == 0 => {
+            let after = Model::Mesh;
+            record(&after);
+            let url = format!("{base}?id={id}&object=mesh");
+            let sent = http(agent.post(&url).content_type("model/obj").send(OBJ));
+            (after, sent)
+        }
+        Model::Absent => {
+            let after = Model::Room(Room::new());
+            record(&after);
+            let url = format!("{base}?id={id}");
+            let sent = http(agent.post(&url).content_type("application/json").send(ROOM));
+            (after, sent)
+        }
+        Model::Mesh => {
+            record(&Model::Absent);
+            (
+                Model::Absent,
+                http(agent.delete(&format!("{base}/{id}")).call()),
+            )
+        }
+        Model::Room(room) => {
+            let mut next = room.clone();
+            let object = |name: &str| format!("{base}/{id}/objects/{name}");
+            let json = |url: String, body: Value| {
+                agent
+                    .patch(&url)
+                    .content_type("application/json")
+                    .send(body.to_string())
+            };
+            match rng.below(7) {
+                0 => {
+                    next.door_yz = [rng.offset(0.5), rng.offset(0.5)];
+                    record(&Model::Room(next.clone()));
+                    let t = [0.0, next.door_yz[0], next.door_yz[1]];
+                    let sent = http(json(object("door"), serde_json::json!({"translation": t})));
+                    (Model::Room(next), sent)
+                }
+                1 => {
+                    let half = rng.offset(1.5) / 2.0;
+                    next.panel_rotation = [0.0, half.sin(), 0.0, half.cos()];
+                    record(&Model::Room(next.clone()));
+                    let body = serde_json::json!({"rotation": next.panel_rotation});
+                    (Model::Room(next), http(json(object("panel"), body)))
+                }
+                2 => {
+                    next.door_dx = rng.offset(1.0);
+                    record(&Model::Room(next.clone()));
+                    let body = serde_json::json!({"vertices": Room::door_vertices(next.door_dx)});
+                    (Model::Room(next), http(json(object("door"), body)))
+                }
+                3 => {
+                    next.door_dx = rng.offset(1.0);
+                    record(&Model::Room(next.clone()));
+                    let bytes: Vec<u8> = Room::door_vertices(next.door_dx)
+                        .iter()
+                        .flatten()
+                        .flat_map(|c| c.to_le_bytes())
+                        .collect();
+                    let sent = http(
+                        agent
+                            .patch(&object("door"))
+                            .content_type("application/octet-stream")
+                            .send(&bytes[..]),
+                    );
+                    (Model::Room(next), sent)
+                }
+                4 => {
+                    let name = format!("m{}", next.added_materials.len());
+                    next.added_materials.push(name.clone());
+                    record(&Model::Room(next.clone()));
+                    let body = serde_json::json!({"materials": {name: {"absorption": 0.3}}});
+                    let url = format!("{base}/{id}/materials");
+                    (Model::Room(next), http(json(url, body)))
+                }
+                5 => {
+                    next.door_yz = [rng.offset(0.5), rng.offset(0.5)];
+                    record(&Model::Room(next.clone()));
+                    let sent = stream_move(addr, &id, next.door_yz);
+                    (Model::Room(next), sent)
+                }
+                _ => {
+                    record(&Model::Absent);
+                    (
+                        Model::Absent,
+                        http(agent.delete(&format!("{base}/{id}")).call()),
+                    )
+                }
+            }
+        }
+    };
+    if let Sent::Done = sent {
+        let mut l = ledger.lock().expect("ledger");
+        l.confirmed.insert(id, after);
+        l.in_flight = None;
+    }
+    sent
+}
+
+/// Reads back what the server holds for `id`.
+fn observe(agent: &ureq::Agent, addr: &str, id: &str) -> Model {
+    let base = format!("http://{addr}/v1/scenes/{id}");
+    let mut response = agent.get(&base).call().expect("GET scene");
+    if response.status() == 404 {
+        return Model::Absent;
+    }
+    assert_eq!(response.status(), 200, "GET {id}");
+    let detail: Value =
+        serde_json::from_str(&response.body_mut().read_to_string().expect("body")).expect("JSON");
+    let objects = detail["objects"].as_array().expect("objects");
+    if objects.len() == 1 {
+        return Model::Mesh;
+    }
+    let floats = |v: &Value| -> Vec<f32> {
+        v.as_array()
+            .expect("array")
+            .iter()
+            .map(|x| x.as_f64().expect("number") as f32)
+            .collect()
+    };
+    let door = floats(&objects[1]["translation"]);
+    let rotation = floats(&objects[2]["rotation"]);
+    let materials: Vec<String> = detail["materials"]
+        .as_array()
+        .expect("materials")
+        .iter()
+        .map(|m| m.as_str().expect("name").to_owned())
+        .filter(|m| m.starts_with('m'))
+        .collect();
+    // The door's x from a ray along +x through its middle.
+    let ray = serde_json::json!({"rays": [{"origin": [0.5, 1.5 + door[1], 1.0 + door[2]], "direction": [1, 0, 0]}]});
+    let mut hit = agent
+        .post(&format!("{base}/rays"))
+        .content_type("application/json")
+        .send(ray.to_string())
+        .expect("rays");
+    let hits: Value =
+        serde_json::from_str(&hit.body_mut().read_to_string().expect("body")).expect("JSON");
+    let hit = &hits["hits"][0];
+    assert_eq!(hit["object_name"], "door", "{id}: the ray misses the door");
+    let t = hit["t"].as_f64().expect("t") as f32;
+    Model::Room(Room {
+        door_yz: [door[1], door[2]],
+        door_dx: t - 2.5,
+        panel_rotation: [rotation[0], rotation[1], rotation[2], rotation[3]],
+        added_materials: materials,
+    })
+}
+
+/// Equal up to float noise (a ray's `t`, a renormalised quaternion).
+fn same(a: &Model, b: &Model) -> bool {
+    let close = |x: &[f32], y: &[f32]| x.iter().zip(y).all(|(x, y)| (x - y).abs() < 1e-4);
+    match (a, b) {
+        (Model::Room(a), Model::Room(b)) => {
+            close(&a.door_yz, &b.door_yz)
+                && close(&[a.door_dx], &[b.door_dx])
+                && close(&a.panel_rotation, &b.panel_rotation)
+                && a.added_materials == b.added_materials
+        }
+        (a, b) => a == b,
+    }
+}
+
+/// Checks every scene against the ledger and settles the write in flight
+/// to what the server kept.
+fn verify(ledger: &mut Ledger, agent: &ureq::Agent, addr: &str, round: usize) {
+    let in_flight = ledger.in_flight.take();
+    let mut ids: Vec<String> = ledger.confirmed.keys().cloned().collect();
+    ids.extend(in_flight.iter().map(|(id, _)| id.clone()));
+    for id in ids {
+        let expected = ledger.confirmed.get(&id).cloned().unwrap_or(Model::Absent);
+        let seen = observe(agent, addr, &id);
+        if same(&seen, &expected) {
+            continue;
+        }
+        match &in_flight {
+            Some((flying, after)) if *flying == id && same(&seen, after) => {
+                ledger.confirmed.insert(id, after.clone());
+            }
+            _ => panic!(
+                "round {round}, scene {id}: the server holds {seen:?}, acknowledged {expected:?} (in flight: {in_flight:?})"
+            ),
+        }
+    }
+}
+
 #[test]
-fn kill_9_mid_write_loses_nothing_acknowledged() {
+fn every_acknowledged_write_survives_kill_9_and_restart() {
     let dir = std::env::temp_dir().join(format!("frusta-crash-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let (mut server, base) = start(&dir);
-
-    // Uploads and moves, as fast as one client can. Each acknowledged upload
-    // is recorded with the door position the server confirmed and the one
-    // in flight: the kill may land after the server stored and answered a
-    // move but before this client read the answer, so the store may hold
-    // either of the two, and nothing else.
-    let acknowledged = Arc::new(Mutex::new(Vec::<Door>::new()));
-    let stop = Arc::new(AtomicBool::new(false));
-    let writer = {
-        let (acknowledged, stop, base) = (acknowledged.clone(), stop.clone(), base.clone());
-        std::thread::spawn(move || {
-            let agent = agent();
-            for i in 0u32.. {
-                if stop.load(Ordering::Relaxed) {
-                    return;
-                }
-                let id = format!("s{i}");
-                let created = agent
-                    .post(&format!("{base}/v1/scenes?id={id}"))
-                    .header("content-type", "application/json")
-                    .send(DOC);
-                match created {
-                    Ok(r) if r.status() == 201 => {}
-                    _ => return,
-                }
-                let y = 0.01 * f64::from(i % 300);
-                acknowledged.lock().expect("lock").push(Door {
-                    scene: id.clone(),
-                    confirmed: 0.0,
-                    in_flight: y,
-                });
-                let moved = agent
-                    .patch(&format!("{base}/v1/scenes/{id}/objects/door"))
-                    .header("content-type", "application/json")
-                    .send(format!(r#"{{"translation": [0, {y}, 0]}}"#));
-                match moved {
-                    Ok(r) if r.status() == 200 => {}
-                    _ => return,
-                }
-                acknowledged
-                    .lock()
-                    .expect("lock")
-                    .last_mut()
-                    .expect("entry")
-                    .confirmed = y;
-            }
-        })
-    };
-    let started = Instant::now();
-    while acknowledged.lock().expect("lock").len() < 25 {
-        assert!(
-            started.elapsed() < Duration::from_secs(120),
-            "the server stopped answering"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    server.kill().expect("kill -9");
-    server.wait().expect("reap");
-    stop.store(true, Ordering::Relaxed);
-    writer.join().expect("writer");
-
-    let (mut server, base) = start(&dir);
+    let ledger = Arc::new(Mutex::new(Ledger::default()));
     let agent = agent();
-    let acknowledged = acknowledged.lock().expect("lock").clone();
-    for door in &acknowledged {
-        let id = &door.scene;
-        let mut response = agent
-            .get(&format!("{base}/v1/scenes/{id}"))
-            .call()
-            .expect("GET");
-        assert_eq!(response.status(), 200, "acknowledged scene {id} was lost");
-        let detail: serde_json::Value =
-            serde_json::from_str(&response.body_mut().read_to_string().expect("body"))
-                .expect("JSON");
-        let stored = detail["objects"][1]["translation"][1].as_f64().expect("y");
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    // Nine kill -9 rounds, then a plain stop (SIGTERM), each checked on
+    // the next start.
+    let rounds = 10;
+    for round in 0..rounds {
+        let (mut server, addr) = start(&dir);
+        verify(&mut ledger.lock().expect("ledger"), &agent, &addr, round);
+        let acknowledged = Arc::new(AtomicUsize::new(0));
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut writer_rng = Rng(rng.next() | 1);
+        let writer = {
+            let (ledger, acknowledged, stop, addr) = (
+                ledger.clone(),
+                acknowledged.clone(),
+                stop.clone(),
+                addr.clone(),
+            );
+            std::thread::spawn(move || -> Option<String> {
+                let agent = self::agent();
+                while !stop.load(Ordering::Relaxed) {
+                    match write_one(&mut writer_rng, &ledger, &agent, &addr) {
+                        Sent::Done => acknowledged.fetch_add(1, Ordering::Relaxed),
+                        Sent::Refused(why) => return Some(why),
+                        Sent::Cut => return None,
+                    };
+                }
+                None
+            })
+        };
+        let target = 30 + rng.below(150);
+        let started = Instant::now();
+        while acknowledged.load(Ordering::Relaxed) < target && !writer.is_finished() {
+            assert!(
+                started.elapsed() < Duration::from_secs(120),
+                "the server stopped answering"
+            );
+            std::thread::sleep(Duration::from_millis(2));
+        }
         assert!(
-            (stored - door.confirmed).abs() < 1e-6 || (stored - door.in_flight).abs() < 1e-6,
-            "{id}: door at {stored}, acknowledged {} (in flight {})",
-            door.confirmed,
-            door.in_flight
+            !writer.is_finished(),
+            "round {round}: the writer stopped before the server did: {:?}",
+            writer.join()
         );
+        if round + 1 < rounds {
+            server.kill().expect("kill -9");
+        } else {
+            let terminated = Command::new("kill")
+                .args(["-TERM", &server.id().to_string()])
+                .status()
+                .expect("kill -TERM");
+            assert!(terminated.success());
+            stop.store(true, Ordering::Relaxed);
+        }
+        let exit = server.wait().expect("reap");
+        stop.store(true, Ordering::Relaxed);
+        if let Some(why) = writer.join().expect("writer") {
+            panic!("round {round}: a valid write was refused: {why}");
+        }
+        if round + 1 == rounds {
+            assert!(exit.success(), "a plain stop exits cleanly: {exit}");
+        }
     }
-    // The store still takes writes.
-    let created = agent
-        .post(&format!("{base}/v1/scenes?id=after"))
-        .header("content-type", "application/json")
-        .send(DOC)
-        .expect("POST");
-    assert_eq!(created.status(), 201);
+    let (mut server, addr) = start(&dir);
+    let mut ledger = ledger.lock().expect("ledger");
+    verify(&mut ledger, &agent, &addr, rounds);
+    let kinds: Vec<&Model> = ledger.confirmed.values().collect();
+    assert!(
+        kinds
+            .iter()
+            .any(|m| matches!(m, Model::Room(r) if !r.added_materials.is_empty())),
+        "the mix never edited materials: {kinds:?}"
+    );
     server.kill().expect("stop");
     server.wait().expect("reap");
     let _ = std::fs::remove_dir_all(&dir);

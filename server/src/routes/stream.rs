@@ -17,9 +17,8 @@
 //! (the fields of the HTTP route's responses), then a binary frame of
 //! interleaved little-endian f32 samples. Object moves sent before any
 //! source and listener are answered with `{"type": "objects_updated", ...}`.
-//! Errors are `{"type": "error", "problem": <problem document>}`; the
-//! stream stays open. Errors are text frames
-//! `{"type": "error", <problem document>}`; the stream stays open.
+//! Errors are text frames `{"type": "error", "problem": <problem
+//! document>}`; the stream stays open.
 
 use std::time::Instant;
 
