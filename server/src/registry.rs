@@ -86,6 +86,36 @@ pub struct ObjectEdit {
 }
 
 impl ObjectEdit {
+    /// What can be checked without the scene's lock: finite values, a
+    /// rotation that can be normalised, the object's vertex count. A
+    /// stream checks each update on arrival, so one bad update cannot
+    /// sink the others merged with it; only "every triangle degenerate"
+    /// needs the mesh and waits for the edit itself.
+    pub fn check(&self, vertex_count: usize) -> Result<(), ApiError> {
+        let rotation = self
+            .rotation
+            .map_or(glam::Quat::IDENTITY, glam::Quat::from_array);
+        let translation = self.translation.map_or(Vec3::ZERO, Vec3::from_array);
+        RigidTransform::new(rotation, translation).map_err(ApiError::from_engine)?;
+        if let Some(vertices) = &self.vertices {
+            if vertices.len() != vertex_count {
+                return Err(ApiError::from_engine(
+                    frusta_engine::Error::VertexCountMismatch {
+                        expected: vertex_count,
+                        actual: vertices.len(),
+                    },
+                ));
+            }
+            if let Some(i) = vertices.iter().position(|v| !v.is_finite()) {
+                return Err(ApiError::Invalid(format!(
+                    "vertex {i} is {:?}: positions must be finite",
+                    vertices[i].to_array()
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// `newer` applied after this edit: each field it sets replaces ours.
     pub fn merge(&mut self, newer: ObjectEdit) {
         self.rotation = newer.rotation.or(self.rotation);

@@ -260,16 +260,7 @@ impl Stream {
             self.caller.may_change(&self.entry.meta)?;
             let index = object_index(&self.entry, &m.object)?;
             let edit = m.patch.to_edit()?;
-            // Checked here, so one bad update cannot sink the earlier ones
-            // it would be merged with.
-            let expected = self.entry.object_vertices[index];
-            if let Some(actual) = edit.vertices.as_ref().map(Vec::len) {
-                if actual != expected {
-                    return Err(ApiError::from_engine(
-                        frusta_engine::Error::VertexCountMismatch { expected, actual },
-                    ));
-                }
-            }
+            edit.check(self.entry.object_vertices[index])?;
             edits.push((index, edit));
         }
         let request = match (sources, listeners) {
@@ -414,11 +405,15 @@ fn close(code: u16, reason: &'static str) -> Message {
 }
 
 #[cfg(test)]
+#[path = "stream_merge_props.rs"]
+mod merge_props;
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::routes::test_support::*;
 
-    fn stream(server: &TestServer) -> Stream {
+    pub(super) fn stream(server: &TestServer) -> Stream {
         let state = server.state.clone();
         let entry = state.registry().get("box").unwrap();
         let permit = state.streams().clone().try_acquire_owned().unwrap();
