@@ -17,6 +17,8 @@ pub enum ApiError {
     SceneNotFound(String),
     #[error("a scene with id `{0}` exists already; delete it first or choose another id")]
     SceneExists(String),
+    #[error("this same upload of `{0}` is still being stored; retry in a moment and it is answered with the stored scene")]
+    UploadInFlight(String),
     #[error("no object {0}")]
     UnknownObject(String),
     #[error("no route for {0}")]
@@ -85,7 +87,7 @@ impl ApiError {
             Self::SceneNotFound(_) | Self::RouteNotFound(_) | Self::UnknownObject(_) => {
                 StatusCode::NOT_FOUND
             }
-            Self::SceneExists(_) => StatusCode::CONFLICT,
+            Self::SceneExists(_) | Self::UploadInFlight(_) => StatusCode::CONFLICT,
             Self::BadBody { status, .. }
             | Self::BadUpgrade { status, .. }
             | Self::Http { status, .. } => *status,
@@ -111,6 +113,7 @@ impl ApiError {
         match self {
             Self::SceneNotFound(_) => ("unknown-scene", "Unknown scene"),
             Self::SceneExists(_) => ("scene-exists", "Scene exists"),
+            Self::UploadInFlight(_) => ("upload-in-flight", "Upload in flight"),
             Self::UnknownObject(_) => ("unknown-object", "Unknown object"),
             Self::RouteNotFound(_) => ("unknown-route", "Unknown route"),
             Self::BadBody { .. } => ("bad-body", "Malformed request body"),
@@ -188,7 +191,7 @@ impl IntoResponse for ApiError {
             Self::Unauthorized => {
                 headers.insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
             }
-            Self::Busy { .. } | Self::UploadsBusy(_) => {
+            Self::Busy { .. } | Self::UploadsBusy(_) | Self::UploadInFlight(_) => {
                 headers.insert(header::RETRY_AFTER, HeaderValue::from_static("1"));
             }
             _ => {}

@@ -80,8 +80,13 @@ fn add_bundled(registry: &Registry, dir: &Path) {
             .map_err(|e| e.to_string())
             .and_then(|scene| {
                 // Bundled scenes are the operator's: no triangle budget.
-                let reservation =
-                    registry.reserve(Some(id.to_owned()), id, scene.triangle_count(), usize::MAX);
+                let reservation = registry.reserve(
+                    Some(id.to_owned()),
+                    id,
+                    scene.triangle_count(),
+                    usize::MAX,
+                    None,
+                );
                 reservation
                     .and_then(|r| registry.create(r, meta, scene))
                     .map_err(|e| e.to_string())

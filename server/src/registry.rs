@@ -2,7 +2,7 @@
 //! acoustic hierarchy) and in the [`Store`], edited under one write lock
 //! so that what is stored and what is served never diverge.
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap};
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
@@ -143,7 +143,9 @@ pub struct Registry {
 struct Budget {
     served: usize,
     reserved: usize,
-    ids: HashSet<String>,
+    /// Ids of uploads in flight, each with what identifies its upload
+    /// (caller and content), so that a retry can be told from a rival.
+    ids: HashMap<String, Option<String>>,
 }
 
 /// An upload's claim on its id and triangles, from its checks until its
@@ -213,7 +215,8 @@ impl Registry {
 
     /// Claims an id and `triangles` of the `max_total` budget for an
     /// upload: `id`, or with `id: None` the first free of `slug`,
-    /// `slug-2`, ... Fails if the id is served or claimed, or if the
+    /// `slug-2`, ... Fails if the id is served or claimed (saying so
+    /// when the claim is this same `upload`, a retry), or if the
     /// triangles served and claimed would exceed the budget.
     pub fn reserve(
         &self,
@@ -221,10 +224,17 @@ impl Registry {
         slug: &str,
         triangles: usize,
         max_total: usize,
+        upload: Option<&str>,
     ) -> Result<Reservation<'_>, ApiError> {
         let mut budget = self.budget();
-        let taken = |id: &str| budget.ids.contains(id) || self.get(id).is_ok();
+        let taken = |id: &str| budget.ids.contains_key(id) || self.get(id).is_ok();
         let id = match id {
+            Some(id)
+                if upload.is_some()
+                    && budget.ids.get(&id).map(Option::as_deref) == Some(upload) =>
+            {
+                return Err(ApiError::UploadInFlight(id))
+            }
             Some(id) if taken(&id) => return Err(ApiError::SceneExists(id)),
             Some(id) => id,
             None => (1..)
@@ -241,7 +251,7 @@ impl Registry {
                 "the server holds {held} triangles and takes at most {max_total} in all; delete a scene first"
             )));
         }
-        budget.ids.insert(id.clone());
+        budget.ids.insert(id.clone(), upload.map(str::to_owned));
         budget.reserved += triangles;
         drop(budget);
         #[cfg(test)]
@@ -605,17 +615,23 @@ mod tests {
     }
 
     /// Sets a hook that, when an upload has made its reservation, sends
-    /// `second` and records its status.
+    /// `second` and records its status and problem type (if any).
     fn at_reservation(
         state: &AppState,
         second: Request<Body>,
-    ) -> std::sync::mpsc::Receiver<StatusCode> {
+    ) -> std::sync::mpsc::Receiver<(StatusCode, String)> {
         let (tx, rx) = std::sync::mpsc::channel();
         let handle = tokio::runtime::Handle::current();
         let app = router(state.clone());
         let hook = move || {
             let response = handle.block_on(app.oneshot(second)).unwrap();
-            tx.send(response.status()).unwrap();
+            let status = response.status();
+            let body = handle
+                .block_on(axum::body::to_bytes(response.into_body(), usize::MAX))
+                .unwrap();
+            let problem: serde_json::Value = serde_json::from_slice(&body).unwrap_or_default();
+            let kind = problem["type"].as_str().unwrap_or_default().to_owned();
+            tx.send((status, kind)).unwrap();
         };
         *state.registry().after_reserve.lock().unwrap() = Some(Box::new(hook));
         rx
@@ -627,16 +643,36 @@ mod tests {
         let second = at_reservation(&server.state, post_json("/v1/scenes?id=twin", BOX_DOC));
         let (status, _, body) = server.send(post_json("/v1/scenes?id=twin", BOX_DOC)).await;
         assert_eq!(status, StatusCode::CREATED, "{body}");
-        assert_eq!(second.recv().unwrap(), StatusCode::CONFLICT);
+        assert_eq!(second.recv().unwrap().0, StatusCode::CONFLICT);
         // Automatic ids are reserved too.
         let doc = BOX_DOC.replacen('{', r#"{"name": "Auto", "#, 1);
         let second = at_reservation(&server.state, post_json("/v1/scenes", &doc));
         let (_, _, first) = server.send(post_json("/v1/scenes", &doc)).await;
-        assert_eq!(second.recv().unwrap(), StatusCode::CREATED);
+        assert_eq!(second.recv().unwrap().0, StatusCode::CREATED);
         assert_eq!(first["id"], "auto");
         let mut all = ids(&server);
         all.sort();
         assert_eq!(all, ["auto", "auto-2", "shoebox", "twin"]);
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_retry_while_its_upload_is_stored_is_told_so_then_answered() {
+        let server = TestServer::new();
+        let upload = || post_json("/v1/scenes?id=twin", BOX_DOC);
+        let retry = at_reservation(&server.state, upload());
+        let (status, _, body) = server.send(upload()).await;
+        assert_eq!(status, StatusCode::CREATED, "{body}");
+        let (status, kind) = retry.recv().unwrap();
+        assert_eq!(status, StatusCode::CONFLICT);
+        assert_eq!(kind, "urn:frusta:problem:upload-in-flight");
+        let (status, _, body) = server.send(upload()).await;
+        assert_eq!(status, StatusCode::OK, "{body}");
+        assert_eq!(body["id"], "twin");
+        // Another body for a claimed id is a rival, not a retry.
+        let rival = BOX_DOC.replacen('{', r#"{"name": "Rival", "#, 1);
+        let second = at_reservation(&server.state, post_json("/v1/scenes?id=other", &rival));
+        server.send(post_json("/v1/scenes?id=other", BOX_DOC)).await;
+        assert_eq!(second.recv().unwrap().1, "urn:frusta:problem:scene-exists");
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -646,7 +682,7 @@ mod tests {
         let second = at_reservation(&server.state, post_json("/v1/scenes?id=b", BOX_DOC));
         let (status, _, body) = server.send(post_json("/v1/scenes?id=a", BOX_DOC)).await;
         assert_eq!(status, StatusCode::CREATED, "{body}");
-        assert_eq!(second.recv().unwrap(), StatusCode::INSUFFICIENT_STORAGE);
+        assert_eq!(second.recv().unwrap().0, StatusCode::INSUFFICIENT_STORAGE);
         assert_eq!(server.state.registry().total_triangles(), 26);
         // Deleting gives the triangles back.
         server.send(delete("/v1/scenes/a")).await;

@@ -195,8 +195,15 @@ pub async fn create(
                 None => slug(&scene_name(bytes, &content_type)),
             };
             let max_total = limits.max_total_triangles;
-            let reservation = match registry.reserve(query.id.clone(), &slug, triangles, max_total)
-            {
+            // Who sent what: a retry matches its first attempt on both.
+            let upload = format!("{}\n{upload_digest}", caller.key.as_deref().unwrap_or(""));
+            let reservation = match registry.reserve(
+                query.id.clone(),
+                &slug,
+                triangles,
+                max_total,
+                Some(&upload),
+            ) {
                 // The same upload, sent twice, stored while this one parsed.
                 Err(ApiError::SceneExists(id)) => {
                     return match replay(&id) {
