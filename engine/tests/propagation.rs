@@ -387,10 +387,10 @@ mod cached {
         );
         // The same without a cache.
         let hurried = Instant::now() + Duration::from_millis(1);
-        let e = simulate_until(&hall, &[source], &[listener], &sampled, hurried).unwrap_err();
+        let e = simulate_until(&hall, &[source], &[listener], &sampled, hurried, None).unwrap_err();
         assert!(matches!(e, Error::DeadlineExceeded { .. }), "{e}");
         assert_same(
-            &simulate_until(&room, &[source], &[listener], &options, late).unwrap(),
+            &simulate_until(&room, &[source], &[listener], &options, late, None).unwrap(),
             &cached,
         );
     }

@@ -162,6 +162,16 @@ impl<'a> PairJson<'a> {
     }
 }
 
+/// Cancels its simulation when dropped: held by a request's handler, so a
+/// request that times out, or whose client goes away, frees its worker.
+pub struct CancelOnDrop(pub Cancel);
+
+impl Drop for CancelOnDrop {
+    fn drop(&mut self) {
+        self.0.cancel();
+    }
+}
+
 /// Simulates under the scene's read lock, within the compute limit. With a
 /// `cache` (a stream), the frusta traced from unchanged sources are kept
 /// for moving listeners; the engine drops them when the geometry,
@@ -192,7 +202,7 @@ pub fn run(
             Some(deadline),
             cancel,
         ),
-        None => simulate_until(scene, sources, listeners, options, deadline),
+        None => simulate_until(scene, sources, listeners, options, deadline, cancel),
     }
     .map_err(ApiError::from_engine)?;
     Ok((live.revision, responses))

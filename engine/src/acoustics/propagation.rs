@@ -215,15 +215,17 @@ pub fn simulate(
 }
 
 /// [`simulate`] that stops with [`Error::DeadlineExceeded`] past
-/// `deadline`, returning nothing partial.
+/// `deadline`, or with [`Error::Cancelled`] once `cancel` is cancelled,
+/// returning nothing partial.
 pub fn simulate_until(
     scene: &AcousticScene,
     sources: &[Vec3],
     listeners: &[Vec3],
     options: &SimulationOptions,
     deadline: Instant,
+    cancel: Option<&Cancel>,
 ) -> Result<Vec<Response>> {
-    let stop = Deadline::new(Some(deadline), Instant::now());
+    let stop = Deadline::new(Some(deadline), Instant::now()).or_cancel(cancel);
     simulate_with(scene, sources, listeners, options, None, stop)
 }
 

@@ -7,6 +7,7 @@ use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use frusta_engine::acoustics::signal::write_wav_to;
+use frusta_engine::acoustics::Cancel;
 use serde::Serialize;
 use serde_json::Value;
 use utoipa::ToSchema;
@@ -14,7 +15,7 @@ use utoipa::ToSchema;
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
 use crate::schema::{Binary, ImpulseResponseRequest};
-use crate::simulation::{self, IrRequest, PairJson};
+use crate::simulation::{self, CancelOnDrop, IrRequest, PairJson};
 
 #[derive(Serialize, ToSchema)]
 pub struct ImpulseResponses<'a> {
@@ -59,9 +60,11 @@ pub async fn create(
         ));
     }
     let limits = state.limits().clone();
+    let cancel = Cancel::new();
+    let _cancel_on_drop = CancelOnDrop(cancel.clone());
     let (revision, responses) = state
         .compute()
-        .run(move || simulation::run(&entry, &request, None, None, &limits))
+        .run(move || simulation::run(&entry, &request, None, Some(&cancel), &limits))
         .await??;
     let metrics = state.metrics();
     metrics.impulse_responses.inc_by(responses.len() as u64);
@@ -88,6 +91,49 @@ mod tests {
     use serde_json::json;
 
     const URI: &str = "/v1/scenes/shoebox/impulse-responses";
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_request_that_times_out_frees_its_worker() {
+        let server = TestServer::with(|c| {
+            c.limits.request_timeout_s = 1;
+            c.limits.max_compute_ms = 3_600_000;
+            c.limits.max_order = 16;
+        });
+        // About 10k nearly rigid triangles: an order-16 conservative trace
+        // takes far longer than this test waits.
+        let room = r#"{"objects": [{"name": "room", "material": "rigid",
+            "mesh": {"box_room": {"min": [0, 0, 0], "max": [9, 7, 4], "subdivisions": 30}}}]}"#;
+        let (status, _, body) = server.send(post_json("/v1/scenes?id=big", room)).await;
+        assert_eq!(status, StatusCode::CREATED, "{body}");
+        let workers = server.state.compute().idle_workers();
+        let heavy = json!({
+            "sources": [{"position": [2, 3, 1.5]}], "listeners": [{"position": [7, 3, 1.2]}],
+            "max_order": 16, "sampling": 32, "cells": "conservative", "sample_rate": 8000
+        })
+        .to_string();
+        let mut requests = tokio::task::JoinSet::new();
+        for _ in 0..workers {
+            let app = crate::router(server.state.clone());
+            let request = post_json("/v1/scenes/big/impulse-responses", &heavy);
+            requests.spawn(async move { tower::ServiceExt::oneshot(app, request).await });
+        }
+        while let Some(response) = requests.join_next().await {
+            assert_eq!(
+                response.unwrap().unwrap().status(),
+                StatusCode::GATEWAY_TIMEOUT
+            );
+        }
+        // Every worker is free again soon after, not when the traces end.
+        let started = std::time::Instant::now();
+        while server.state.compute().idle_workers() < workers {
+            assert!(
+                started.elapsed() < std::time::Duration::from_secs(20),
+                "the timed-out simulations still hold {} workers",
+                workers - server.state.compute().idle_workers()
+            );
+            tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+        }
+    }
 
     #[tokio::test]
     async fn the_bundled_shoebox_answers_with_defaults() {
