@@ -72,8 +72,14 @@ impl ApiError {
         match e {
             frusta_engine::Error::UnknownObject(o) => Self::UnknownObject(o),
             frusta_engine::Error::DeadlineExceeded { limit_ms } => Self::ComputeLimit { limit_ms },
-            // Only streams cancel, once their client has gone.
+            // Cancelled work has no client left to read the answer.
             frusta_engine::Error::Cancelled => Self::Internal("computation cancelled".into()),
+            // The server reads no files on a client's behalf (uploads may
+            // not reference files) and writes audio only to memory, so
+            // these are its own failures, not the input's.
+            e @ (frusta_engine::Error::Io { .. } | frusta_engine::Error::Audio { .. }) => {
+                Self::Internal(e.to_string())
+            }
             e => Self::Invalid(e.to_string()),
         }
     }
@@ -143,9 +149,16 @@ impl ApiError {
         }
     }
 
-    /// The RFC 9457 document, also sent over WebSocket streams.
+    /// The RFC 9457 document, also sent over WebSocket streams. An
+    /// internal error is logged here with a fresh id that the document
+    /// carries too, so what a client reports can be found in the log.
     pub fn problem(&self) -> Problem {
         let (kind, title) = self.kind();
+        let error_id = matches!(self, Self::Internal(_)).then(|| {
+            let id = new_error_id();
+            tracing::error!(error_id = %id, error = %self, "internal error");
+            id
+        });
         Problem {
             kind: format!("urn:frusta:problem:{kind}"),
             title,
@@ -155,12 +168,27 @@ impl ApiError {
                 Self::InvalidRay { index, .. } => Some(*index),
                 _ => None,
             },
+            error_id,
         }
     }
 }
 
-/// The RFC 9457 body; `ray_index` is an extension member so clients can
-/// point at the offending ray without parsing `detail`.
+/// Unique in one server's log: its start time and a counter.
+fn new_error_id() -> String {
+    static START: std::sync::OnceLock<u128> = std::sync::OnceLock::new();
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    let start = START.get_or_init(|| {
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_millis())
+    });
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    format!("{start:x}-{n}")
+}
+
+/// The RFC 9457 body; `ray_index` and `error_id` are extension members so
+/// clients can point at the offending ray without parsing `detail`, and
+/// report an internal error by the id the server logged it under.
 #[derive(Debug, Serialize, utoipa::ToSchema)]
 pub struct Problem {
     #[serde(rename = "type")]
@@ -170,12 +198,19 @@ pub struct Problem {
     pub detail: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ray_index: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_id: Option<String>,
 }
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let status = self.status();
-        if status.is_server_error() && !matches!(self, Self::Busy { .. } | Self::UploadsBusy(_)) {
+        // Internal errors are logged with their id by `problem`.
+        let expected = matches!(
+            self,
+            Self::Busy { .. } | Self::UploadsBusy(_) | Self::Internal(_)
+        );
+        if status.is_server_error() && !expected {
             tracing::error!(error = %self, "request failed");
         }
         // Serialising a struct of strings and integers cannot fail.

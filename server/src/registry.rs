@@ -254,6 +254,13 @@ impl Registry {
         budget.ids.insert(id.clone(), upload.map(str::to_owned));
         budget.reserved += triangles;
         drop(budget);
+        // Made before the test hook runs, so a hook that panics releases
+        // the claim as any failure after this point does.
+        let reservation = Reservation {
+            registry: self,
+            id,
+            triangles,
+        };
         #[cfg(test)]
         {
             // Taken before it runs: the hook may upload (and so reserve) too.
@@ -266,11 +273,7 @@ impl Registry {
                 hook();
             }
         }
-        Ok(Reservation {
-            registry: self,
-            id,
-            triangles,
-        })
+        Ok(reservation)
     }
 
     /// Stores and serves a new scene under its reservation. Blocking
@@ -673,6 +676,27 @@ mod tests {
         let second = at_reservation(&server.state, post_json("/v1/scenes?id=other", &rival));
         server.send(post_json("/v1/scenes?id=other", BOX_DOC)).await;
         assert_eq!(second.recv().unwrap().1, "urn:frusta:problem:scene-exists");
+    }
+
+    #[tokio::test]
+    async fn an_unexpected_failure_is_a_500_with_an_error_id_and_leaves_nothing() {
+        let server = TestServer::new();
+        *server.state.registry().after_reserve.lock().unwrap() =
+            Some(Box::new(|| panic!("forced failure")));
+        let (status, content_type, problem) = server
+            .send(post_json("/v1/scenes?id=doomed", BOX_DOC))
+            .await;
+        assert_eq!(status, StatusCode::INTERNAL_SERVER_ERROR);
+        assert_eq!(content_type, "application/problem+json");
+        assert_eq!(problem["type"], "urn:frusta:problem:internal");
+        let id = problem["error_id"].as_str().expect("an error id");
+        assert!(!id.is_empty());
+        // The claim on the id and triangles went with the failed job.
+        let (status, _, body) = server
+            .send(post_json("/v1/scenes?id=doomed", BOX_DOC))
+            .await;
+        assert_eq!(status, StatusCode::CREATED, "{body}");
+        assert!(body.get("error_id").is_none());
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
