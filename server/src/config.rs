@@ -21,8 +21,9 @@ pub struct Config {
     #[arg(long, env = "FRUSTA_DATA_DIR", default_value = "frusta-data")]
     pub data_dir: PathBuf,
     /// Scenes (`*.json`) added to a new, empty data directory so that a
-    /// first start has something to simulate.
-    #[arg(long, env = "FRUSTA_SCENES_DIR", default_value = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes"))]
+    /// first start has something to simulate; relative to the working
+    /// directory (from the repository's root: its bundled `scenes/`).
+    #[arg(long, env = "FRUSTA_SCENES_DIR", default_value = "scenes")]
     pub scenes_dir: PathBuf,
     /// Comma-separated API keys. When set, every `/v1` request needs
     /// `Authorization: Bearer KEY`, and a scene can be changed only with the

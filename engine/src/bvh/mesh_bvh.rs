@@ -7,7 +7,6 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::refit::DEFAULT_REBUILD_THRESHOLD;
 use super::wide::{Bvh4, WideRay};
 use super::{BuildOptions, Bvh};
 use crate::geometry::{trace_batch, Aabb, Ray, TriangleHit, TriangleMesh, WatertightRay};
@@ -192,11 +191,6 @@ impl MeshBvh {
             degradation,
             elapsed_ms: elapsed(),
         }
-    }
-
-    /// [`update`](Self::update) with the default threshold.
-    pub fn update_default(&mut self, mesh: &TriangleMesh) -> UpdateReport {
-        self.update(mesh, DEFAULT_REBUILD_THRESHOLD)
     }
 
     /// Traces `ray` and calls `on_hit(slot, hit, t_max)` for every triangle

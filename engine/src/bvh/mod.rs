@@ -6,14 +6,12 @@
 //! - [`refit`]: bottom-up box updates after geometry moves, with the rebuild
 //!   heuristic of Lauterbach's dissertation (section 4.1.5);
 //! - [`traverse`]: the robust ray/box test and ordered traversal;
-//! - [`quality`]: SAH cost;
 //! - [`wide`]: the 4-wide tree collapsed from a binary build, which meshes
 //!   are traced with, refitted and judged by the rebuild heuristic.
 
 pub mod build;
 mod mesh_bvh;
 pub mod node;
-pub mod quality;
 pub mod refit;
 pub mod traverse;
 pub mod wide;

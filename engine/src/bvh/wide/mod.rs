@@ -144,8 +144,9 @@ impl Bvh4 {
         depth.into_iter().max().unwrap_or(0)
     }
 
-    /// SAH cost of the wide tree, as [`super::quality::sah_cost`] defines it
-    /// for binary trees: unit cost per node visited and per primitive tested.
+    /// SAH cost of the wide tree relative to a ray that hits the root,
+    /// unit cost per node visited and per primitive tested:
+    /// `(sum(A(node)) + sum(A(leaf) * n(leaf))) / A(root)`.
     pub fn sah_cost(&self) -> f32 {
         let root = self.bounds().half_area();
         if root.is_nan() || root <= 0.0 {
