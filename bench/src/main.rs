@@ -7,7 +7,10 @@
 //! frustum tracing against the independent reference, with pyroomacoustics
 //! as a peer (see `propagation`),
 //! and `frusta-bench serve [--json] [--quick] [--url URL]` loads the service
-//! with impulse-response requests and a WebSocket stream (see `serve`).
+//! with impulse-response requests and a WebSocket stream (see `serve`);
+//! `frusta-bench soak [--minutes M] [--clients C] [--quick] [--json]
+//! [--save DIR]` runs the release server under a long mixed load and checks
+//! that nothing fails and its memory stays flat (see `soak`).
 
 mod bvh_bench;
 mod mesh;
@@ -16,6 +19,7 @@ mod provenance;
 mod rays;
 mod report;
 mod serve;
+mod soak;
 
 use std::process::ExitCode;
 
@@ -39,6 +43,10 @@ enum Command {
     /// The service under load: concurrent impulse-response requests, then
     /// a closed-loop WebSocket stream (listener moving, then source).
     Serve(serve::Args),
+    /// The release server (a child process) under minutes of mixed load:
+    /// uploads, edits, deletes, impulse responses, queries, streams; fails
+    /// on any unexpected answer or growing memory.
+    Soak(soak::Args),
 }
 
 fn main() -> ExitCode {
@@ -47,6 +55,7 @@ fn main() -> ExitCode {
         Command::Bvh(args) => bvh_bench::cli::run(args),
         Command::Propagation(args) => propagation::run(args),
         Command::Serve(args) => serve::run(args),
+        Command::Soak(args) => soak::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -9,7 +9,7 @@ use super::{positions, Measured, Options, Points};
 use crate::rays::SplitMix64;
 
 /// Largest answer read; hall answers at order 2-3 are well below.
-const BODY_LIMIT: u64 = 64 << 20;
+pub(crate) const BODY_LIMIT: u64 = 64 << 20;
 
 #[derive(Default)]
 struct Client {
@@ -50,13 +50,18 @@ pub fn run(
     }
 }
 
-fn client(url: &str, points: &Points, options: &Options, seed: u64, end: Instant) -> Client {
-    let agent: ureq::Agent = ureq::Agent::config_builder()
+/// One keep-alive connection that returns every status as an answer.
+pub(crate) fn agent() -> ureq::Agent {
+    ureq::Agent::config_builder()
         .http_status_as_error(false)
         // A stuck server fails the request instead of hanging the bench.
         .timeout_global(Some(Duration::from_secs(120)))
         .build()
-        .into();
+        .into()
+}
+
+fn client(url: &str, points: &Points, options: &Options, seed: u64, end: Instant) -> Client {
+    let agent = agent();
     let mut rng = SplitMix64::new(0xB0DE_5EED ^ seed);
     let mut out = Client::default();
     while Instant::now() < end {

@@ -3,9 +3,10 @@
 //! client streams closed-loop updates, moving first the listener (the
 //! traced frusta can be reused) and then the source (every update traces).
 
-mod load;
-mod server;
-mod stream;
+// `soak` reuses the agent, the proc reader and the stream helpers.
+pub(crate) mod load;
+pub(crate) mod server;
+pub(crate) mod stream;
 
 use std::time::Duration;
 
@@ -87,7 +88,7 @@ pub struct Latency {
 }
 
 impl Latency {
-    fn of(mut ms: Vec<f64>) -> Option<Self> {
+    pub(crate) fn of(mut ms: Vec<f64>) -> Option<Self> {
         ms.sort_by(f64::total_cmp);
         let at = |q: f64| ms[((q * ms.len() as f64).ceil() as usize).clamp(1, ms.len()) - 1];
         (!ms.is_empty()).then(|| Self {
@@ -136,13 +137,13 @@ pub struct Measured {
 }
 
 /// A source and a box of listener positions in the air of `scene`.
-struct Points {
-    source: Vec3,
-    listeners: (Vec3, Vec3),
+pub(crate) struct Points {
+    pub(crate) source: Vec3,
+    pub(crate) listeners: (Vec3, Vec3),
 }
 
 impl Points {
-    fn of(scene: &str) -> Self {
+    pub(crate) fn of(scene: &str) -> Self {
         match scene {
             // 10 x 6 x 3 m: the propagation bench's source, listeners in
             // the far half of the room.
@@ -160,7 +161,7 @@ impl Points {
         }
     }
 
-    fn random_listener(&self, rng: &mut SplitMix64) -> Vec3 {
+    pub(crate) fn random_listener(&self, rng: &mut SplitMix64) -> Vec3 {
         let (lo, hi) = self.listeners;
         let t = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
         lo + (hi - lo) * t
@@ -168,7 +169,7 @@ impl Points {
 }
 
 /// `[{"position": [x, y, z]}, ...]`, as both routes take points.
-fn positions(list: &[Vec3]) -> serde_json::Value {
+pub(crate) fn positions(list: &[Vec3]) -> serde_json::Value {
     list.iter()
         .map(|p| serde_json::json!({ "position": p.to_array() }))
         .collect()
@@ -221,8 +222,8 @@ fn phases(args: &Args, base: &str, in_process: bool) -> Result<Vec<Row>, String>
     let mut rows = Vec::new();
     let mut push = |mut row: Row| {
         if in_process {
-            row.peak_rss_mib = server::status_mib("VmHWM");
-            row.rss_after_mib = server::status_mib("VmRSS");
+            row.peak_rss_mib = server::status_mib("self", "VmHWM");
+            row.rss_after_mib = server::status_mib("self", "VmRSS");
             row.threads = Some(rayon::current_num_threads());
         }
         // JSON lines go out as each phase ends; the table waits for all.

@@ -46,10 +46,11 @@ impl Local {
     }
 }
 
-/// A `kB` line of `/proc/self/status` (e.g. `VmHWM`, `VmRSS`) in MiB;
-/// `None` off Linux.
-pub fn status_mib(key: &str) -> Option<f64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+/// A `kB` line of `/proc/{process}/status` (e.g. `VmHWM`, `VmRSS`) in
+/// MiB, `process` being `self` or a pid; `None` off Linux, or when the
+/// process is gone (a zombie has no `Vm` lines).
+pub fn status_mib(process: &str, key: &str) -> Option<f64> {
+    let status = std::fs::read_to_string(format!("/proc/{process}/status")).ok()?;
     let line = status.lines().find(|l| l.starts_with(key))?;
     let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib / 1024.0)

@@ -14,7 +14,7 @@ use tungstenite::{Message, WebSocket};
 
 use super::{positions, Measured, Options, Points};
 
-type Socket = WebSocket<MaybeTlsStream<TcpStream>>;
+pub(crate) type Socket = WebSocket<MaybeTlsStream<TcpStream>>;
 
 /// The moving point goes round a circle of this radius (m), this far
 /// (rad) per update: about 10 cm.
@@ -28,14 +28,7 @@ pub fn run(
     moving: &str,
     duration: Duration,
 ) -> Result<Measured, String> {
-    let (mut socket, _) = tungstenite::connect(url).map_err(|e| format!("{url}: {e}"))?;
-    if let MaybeTlsStream::Plain(tcp) = socket.get_ref() {
-        // Updates are small frames: send each at once. A stuck server
-        // fails the phase instead of hanging it.
-        tcp.set_nodelay(true).map_err(|e| e.to_string())?;
-        tcp.set_read_timeout(Some(Duration::from_secs(120)))
-            .map_err(|e| e.to_string())?;
-    }
+    let mut socket = connect(url).map_err(|e| format!("{url}: {e}"))?;
     let (lo, hi) = points.listeners;
     let listener = (lo + hi) * 0.5;
     let start = Instant::now();
@@ -87,9 +80,21 @@ pub fn run(
     Ok(m)
 }
 
+/// Opens a stream on `url` (`ws://`).
+pub(crate) fn connect(url: &str) -> Result<Socket, tungstenite::Error> {
+    let (socket, _) = tungstenite::connect(url)?;
+    if let MaybeTlsStream::Plain(tcp) = socket.get_ref() {
+        // Updates are small frames: send each at once. A stuck server
+        // fails the read instead of hanging the bench.
+        tcp.set_nodelay(true)?;
+        tcp.set_read_timeout(Some(Duration::from_secs(120)))?;
+    }
+    Ok(socket)
+}
+
 /// Waits for the answer to `seq`: `Ok(beams_reused)`, or the error frame
 /// as `Ok(Err(text))`. A closed or broken socket ends the phase.
-fn read_answer(socket: &mut Socket, seq: u64) -> Result<Result<bool, String>, String> {
+pub(crate) fn read_answer(socket: &mut Socket, seq: u64) -> Result<Result<bool, String>, String> {
     loop {
         let text = match socket.read().map_err(|e| e.to_string())? {
             Message::Text(text) => text,
