@@ -18,6 +18,7 @@ mod routes;
 mod schema;
 mod simulation;
 mod store;
+mod wire;
 
 use std::future::Future;
 use std::path::Path;

@@ -11,7 +11,7 @@ use frusta_engine::acoustics::{
     simulate_cached, simulate_until, BeamCache, Cancel, Response, SimulationOptions,
 };
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use crate::config::Limits;
@@ -137,29 +137,6 @@ pub fn positions(name: &str, list: &[Point]) -> Result<Vec<Vec3>, ApiError> {
             }
         })
         .collect()
-}
-
-/// One source-listener pair as JSON: the fields of `frusta ir --json` and
-/// the shape of the samples (sent as WAV or a binary frame).
-#[derive(Serialize)]
-pub struct PairJson<'a> {
-    #[serde(flatten)]
-    pub response: &'a Response,
-    pub sample_rate: u32,
-    pub channels: usize,
-    pub frames: usize,
-}
-
-impl<'a> PairJson<'a> {
-    pub fn new(response: &'a Response) -> Self {
-        let ir = &response.impulse_response;
-        Self {
-            response,
-            sample_rate: ir.sample_rate,
-            channels: ir.channels.len(),
-            frames: ir.channels.first().map_or(0, Vec::len),
-        }
-    }
 }
 
 /// Cancels its simulation when dropped: held by a request's handler, so a

@@ -15,17 +15,16 @@ use utoipa::ToSchema;
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
 use crate::schema::{Binary, ImpulseResponseRequest};
-use crate::simulation::{self, CancelOnDrop, IrRequest, PairJson};
+use crate::simulation::{self, CancelOnDrop, IrRequest};
+use crate::wire::PairResponse;
 
 #[derive(Serialize, ToSchema)]
 pub struct ImpulseResponses<'a> {
     scene: &'a str,
     /// The scene revision every response belongs to.
     revision: u64,
-    /// One per source-listener pair: `source`, `listener`, `paths`,
-    /// `parameters`, `stats`, `sample_rate`, `channels`, `frames`, ...
-    #[schema(value_type = Vec<Object>)]
-    responses: Vec<PairJson<'a>>,
+    /// One per source-listener pair, sources outer.
+    responses: Vec<PairResponse<'a>>,
 }
 
 /// Body: `{"sources": [{"position": [x, y, z]}], "listeners": [...]}` plus
@@ -79,7 +78,7 @@ pub async fn create(
     Ok(Json(ImpulseResponses {
         scene: &id,
         revision,
-        responses: responses.iter().map(PairJson::new).collect(),
+        responses: responses.iter().map(PairResponse::new).collect(),
     })
     .into_response())
 }

@@ -38,7 +38,8 @@ use crate::auth::Caller;
 use crate::error::{ApiError, Problem};
 use crate::registry::{EditReport, ObjectEdit, SceneEntry};
 use crate::routes::objects::{object_index, ObjectPatch};
-use crate::simulation::{self, IrRequest, PairJson, Point};
+use crate::simulation::{self, IrRequest, Point};
+use crate::wire::PairResponse;
 
 /// One message from the client; omitted fields keep their last value.
 #[derive(Debug, Default, Deserialize, ToSchema)]
@@ -73,7 +74,7 @@ struct Answer<'a> {
     /// What each object move of this update did to the hierarchy.
     objects: &'a [EditReport],
     #[serde(flatten)]
-    pair: PairJson<'a>,
+    pair: PairResponse<'a>,
 }
 
 #[derive(Serialize)]
@@ -370,7 +371,7 @@ impl Stream {
                 revision: computed.revision,
                 compute_ms: computed.compute_ms,
                 objects: &computed.objects,
-                pair: PairJson::new(response),
+                pair: PairResponse::new(response),
             };
             let text = serde_json::to_string(&answer).unwrap_or_default();
             socket.send(Message::Text(text.into())).await?;
