@@ -146,6 +146,11 @@ impl MeshBvh {
                 mesh.triangle_count()
             )));
         }
+        Ok(self.refit_same_count(mesh))
+    }
+
+    /// [`refit`](Self::refit) for a mesh whose triangle count was checked.
+    fn refit_same_count(&mut self, mesh: &TriangleMesh) -> RefitReport {
         let ids = &self.prim_ids;
         self.triangles
             .par_iter_mut()
@@ -161,7 +166,7 @@ impl MeshBvh {
                 })
         });
         let degradation = self.bvh.degradation(|f, c| leaf_area_sum(triangles, f, c));
-        Ok(RefitReport { degradation })
+        RefitReport { degradation }
     }
 
     /// Brings the hierarchy up to date with `mesh`: refits, and rebuilds when
@@ -178,17 +183,16 @@ impl MeshBvh {
                 elapsed_ms: elapsed(),
             };
         }
-        let degradation = self.refit(mesh).map(|r| r.degradation).ok();
-        let action = match degradation {
-            Some(d) if d <= threshold => UpdateAction::Refit,
-            _ => {
-                *self = Self::build(mesh, &self.options);
-                UpdateAction::Rebuild
-            }
+        let degradation = self.refit_same_count(mesh).degradation;
+        let action = if degradation <= threshold {
+            UpdateAction::Refit
+        } else {
+            *self = Self::build(mesh, &self.options);
+            UpdateAction::Rebuild
         };
         UpdateReport {
             action,
-            degradation,
+            degradation: Some(degradation),
             elapsed_ms: elapsed(),
         }
     }
