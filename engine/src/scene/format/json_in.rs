@@ -95,40 +95,101 @@ fn material_spec(v: Value) -> std::result::Result<MaterialSpec, String> {
 }
 
 impl<'de> Deserialize<'de> for MeshSpec {
+    /// Streams the mesh's fields into their types as they come: an inline
+    /// mesh's vertices go straight into a `Vec<Vec3>`, never through a
+    /// `serde_json::Value` (about ten times the mesh's memory).
     fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        mesh_spec(Value::deserialize(d)?).map_err(de::Error::custom)
+        d.deserialize_map(MeshVisitor)
     }
 }
 
 const MESH_FORMS: &str = "a mesh is {\"vertices\", \"triangles\"}, {\"file\"}, or one of \
                           {\"box_room\"}, {\"l_room\"}, {\"two_rooms\"}, {\"hall\"}";
 
-fn mesh_spec(v: Value) -> std::result::Result<MeshSpec, String> {
-    fn parse<T: de::DeserializeOwned>(what: &str, v: Value) -> std::result::Result<T, String> {
-        serde_json::from_value(v).map_err(|e| format!("{what}: {e}"))
+/// An inline mesh's per-triangle names or a file mesh's name map: the two
+/// forms share the key `materials`.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum MeshMaterials {
+    PerTriangle(Vec<String>),
+    ByName(std::collections::BTreeMap<String, String>),
+}
+
+struct MeshVisitor;
+
+impl<'de> Visitor<'de> for MeshVisitor {
+    type Value = MeshSpec;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str(MESH_FORMS)
     }
-    let Value::Object(mut obj) = v else {
-        return Err(MESH_FORMS.into());
-    };
-    if obj.contains_key("vertices") || obj.contains_key("triangles") {
-        return parse("inline mesh", Value::Object(obj)).map(MeshSpec::Inline);
-    }
-    if obj.contains_key("file") {
-        return parse("file mesh", Value::Object(obj)).map(MeshSpec::File);
-    }
-    if obj.len() != 1 {
-        return Err(MESH_FORMS.into());
-    }
-    let (kind, params) = obj
-        .iter_mut()
-        .next()
-        .map(|(k, v)| (k.clone(), v.take()))
-        .ok_or(MESH_FORMS)?;
-    match kind.as_str() {
-        "box_room" => parse(&kind, params).map(MeshSpec::BoxRoom),
-        "l_room" => parse(&kind, params).map(MeshSpec::LRoom),
-        "two_rooms" => parse(&kind, params).map(MeshSpec::TwoRooms),
-        "hall" => parse(&kind, params).map(MeshSpec::Hall),
-        _ => Err(format!("unknown mesh kind {kind:?}; {MESH_FORMS}")),
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> std::result::Result<MeshSpec, A::Error> {
+        let mut vertices = None;
+        let mut triangles = None;
+        let mut file = None;
+        let mut materials = None;
+        let mut generated: Option<MeshSpec> = None;
+        let mut keys = 0;
+        while let Some(key) = map.next_key::<String>()? {
+            keys += 1;
+            let with = |what: &str, e: A::Error| de::Error::custom(format!("{what}: {e}"));
+            match key.as_str() {
+                "vertices" => vertices = Some(map.next_value().map_err(|e| with("inline mesh", e))?),
+                "triangles" => {
+                    triangles = Some(map.next_value().map_err(|e| with("inline mesh", e))?)
+                }
+                "file" => file = Some(map.next_value().map_err(|e| with("file mesh", e))?),
+                "materials" => materials = Some(map.next_value::<MeshMaterials>().map_err(|_| {
+                    de::Error::custom(
+                        "mesh materials: a list of names (inline meshes) or a {file name: material} map (file meshes)",
+                    )
+                })?),
+                "box_room" => generated = Some(MeshSpec::BoxRoom(map.next_value().map_err(|e| with(&key, e))?)),
+                "l_room" => generated = Some(MeshSpec::LRoom(map.next_value().map_err(|e| with(&key, e))?)),
+                "two_rooms" => generated = Some(MeshSpec::TwoRooms(map.next_value().map_err(|e| with(&key, e))?)),
+                "hall" => generated = Some(MeshSpec::Hall(map.next_value().map_err(|e| with(&key, e))?)),
+                _ if vertices.is_some() || triangles.is_some() => {
+                    return Err(de::Error::custom(format!("inline mesh: unknown field `{key}`")))
+                }
+                _ => {
+                    return Err(de::Error::custom(format!(
+                        "unknown mesh kind {key:?}; {MESH_FORMS}"
+                    )))
+                }
+            }
+        }
+        let inline = vertices.is_some() || triangles.is_some();
+        let missing =
+            |what: &str, field: &str| de::Error::custom(format!("{what}: missing field `{field}`"));
+        match (inline, file, generated) {
+            (true, None, None) => Ok(MeshSpec::Inline(super::InlineMesh {
+                vertices: vertices.ok_or_else(|| missing("inline mesh", "vertices"))?,
+                triangles: triangles.ok_or_else(|| missing("inline mesh", "triangles"))?,
+                materials: match materials {
+                    None => None,
+                    Some(MeshMaterials::PerTriangle(names)) => Some(names),
+                    Some(MeshMaterials::ByName(_)) => {
+                        return Err(de::Error::custom(
+                            "inline mesh: `materials` is a list of one name per triangle",
+                        ))
+                    }
+                },
+            })),
+            (false, Some(file), None) => {
+                Ok(MeshSpec::File(super::FileMesh {
+                    file,
+                    materials: match materials {
+                        None => Default::default(),
+                        Some(MeshMaterials::ByName(map)) => map,
+                        Some(MeshMaterials::PerTriangle(_)) => return Err(de::Error::custom(
+                            "file mesh: `materials` maps file material names to scene materials",
+                        )),
+                    },
+                }))
+            }
+            (false, None, Some(generated)) if keys == 1 => Ok(generated),
+            _ => Err(de::Error::custom(MESH_FORMS)),
+        }
     }
 }

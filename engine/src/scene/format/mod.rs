@@ -347,6 +347,30 @@ mod tests {
         assert!(e.contains("no material"), "{e}");
         let e = err(r#"{"objects": [{"name": "a", "mesh": {"teapot": {}}}]}"#);
         assert!(e.contains("unknown mesh kind"), "{e}");
+        // The mesh forms, read field by field.
+        let mesh = |m: &str| {
+            err(&format!(
+                r#"{{"objects": [{{"name": "a", "material": "rigid", "mesh": {m}}}]}}"#
+            ))
+        };
+        let e = mesh(
+            r#"{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]], "materials": {"x": "y"}}"#,
+        );
+        assert!(e.contains("one name per triangle"), "{e}");
+        let e = mesh(r#"{"vertices": [[0,0,0],[1,0,0],[0,1,0]]}"#);
+        assert!(e.contains("missing field `triangles`"), "{e}");
+        let e = mesh(r#"{"vertices": [[0,0,0]], "triangles": [[0,1,2]], "colour": 1}"#);
+        assert!(e.contains("unknown field `colour`"), "{e}");
+        let e = mesh(r#"{"vertices": [[0,0]], "triangles": [[0,1,2]]}"#);
+        assert!(e.contains("inline mesh"), "{e}");
+        let e = mesh(r#"{"file": "x.obj", "materials": ["a"]}"#);
+        assert!(e.contains("maps file material names"), "{e}");
+        let e = mesh(r#"{"box_room": {"min": [0,0,0], "max": [1,1,1]}, "hall": {}}"#);
+        assert!(e.contains("a mesh is"), "{e}");
+        let e = mesh(r#"{"file": "x.obj", "vertices": [[0,0,0]], "triangles": [[0,0,0]]}"#);
+        assert!(e.contains("a mesh is"), "{e}");
+        let e = mesh("[1, 2]");
+        assert!(e.contains("a mesh is"), "{e}");
         let e = err(
             r#"{"objects": [{"name": "a", "mesh": {"vertices": [[0,0,0]], "triangles": [[0,1,2]]}, "material": "rigid"}]}"#,
         );
