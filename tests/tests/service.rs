@@ -218,7 +218,16 @@ fn stream_with_a_moving_listener() {
     assert_eq!(problem["status"], 422);
     socket.send(ws_update(99, [6.0, 2.0, 1.5])).expect("send");
     assert_eq!(read_answer(&mut socket).0["seq"], 99);
+    // The client closes; the server answers with its Close (RFC 6455
+    // 5.5.1) rather than dropping the connection.
     socket.close(None).expect("close");
+    loop {
+        match socket.read() {
+            Ok(Message::Close(_)) | Ok(_) => continue,
+            Err(tungstenite::Error::ConnectionClosed) => break,
+            Err(e) => panic!("the server did not complete the close handshake: {e}"),
+        }
+    }
 }
 
 #[test]

@@ -117,6 +117,9 @@ pub async fn connect(
     }))
 }
 
+/// How long a closing client gets to take the server's Close frame.
+const CLOSE_GRACE: std::time::Duration = std::time::Duration::from_secs(2);
+
 /// Updates received and not yet simulated.
 #[derive(Default)]
 struct Pending {
@@ -199,7 +202,14 @@ impl Stream {
                         let e = ApiError::Invalid("updates are JSON text messages".into());
                         if send_error(&mut socket, &e).await.is_err() { break; }
                     }
-                    Some(Ok(Message::Close(_))) | None | Some(Err(_)) => break,
+                    Some(Ok(Message::Close(_))) => {
+                        // The reply Close is queued, and goes out on the
+                        // next read (RFC 6455 5.5.1), which then ends.
+                        let drain = async { while let Some(Ok(_)) = socket.recv().await {} };
+                        let _ = tokio::time::timeout(CLOSE_GRACE, drain).await;
+                        break;
+                    }
+                    None | Some(Err(_)) => break,
                     Some(Ok(_)) => {}
                 },
                 Some((cache, result)) = done_rx.recv() => {
