@@ -152,6 +152,9 @@ impl<'de> Visitor<'de> for MeshVisitor {
                 _ if vertices.is_some() || triangles.is_some() => {
                     return Err(de::Error::custom(format!("inline mesh: unknown field `{key}`")))
                 }
+                _ if file.is_some() => {
+                    return Err(de::Error::custom(format!("file mesh: unknown field `{key}`")))
+                }
                 _ => {
                     return Err(de::Error::custom(format!(
                         "unknown mesh kind {key:?}; {MESH_FORMS}"

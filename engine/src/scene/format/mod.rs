@@ -365,6 +365,8 @@ mod tests {
         assert!(e.contains("inline mesh"), "{e}");
         let e = mesh(r#"{"file": "x.obj", "materials": ["a"]}"#);
         assert!(e.contains("maps file material names"), "{e}");
+        let e = mesh(r#"{"file": "x.obj", "scale": 2}"#);
+        assert!(e.contains("file mesh: unknown field `scale`"), "{e}");
         let e = mesh(r#"{"box_room": {"min": [0,0,0], "max": [1,1,1]}, "hall": {}}"#);
         assert!(e.contains("a mesh is"), "{e}");
         let e = mesh(r#"{"file": "x.obj", "vertices": [[0,0,0]], "triangles": [[0,0,0]]}"#);
