@@ -126,7 +126,7 @@ fn check_against_reference(
     let exact = image_sources(
         scene.bvh(),
         scene.surfaces(),
-        &scene.materials,
+        scene.materials(),
         s,
         l,
         options.max_order as usize,
@@ -228,7 +228,7 @@ fn shoebox_simulate_matches_reference_delays_and_gains() {
     };
     let r = simulate(&scene, &[s], &[l], &opts).unwrap().remove(0);
     let (s, l) = (s.as_dvec3(), l.as_dvec3());
-    let exact = image_sources(scene.bvh(), scene.surfaces(), &scene.materials, s, l, 6);
+    let exact = image_sources(scene.bvh(), scene.surfaces(), scene.materials(), s, l, 6);
     assert_eq!(exact.len(), box_image_count(6));
     assert_eq!(r.paths.len(), exact.len());
     let air = AirConditions::default();
@@ -272,7 +272,7 @@ fn rotated_box_order_6_every_image_source() {
     assert_distinct_images(&paths, "rotated box");
     // The lengths are those of the axis-aligned box.
     let plain = AcousticScene::new(&shoebox(0.2));
-    let exact = image_sources(plain.bvh(), plain.surfaces(), &plain.materials, S, L, 6);
+    let exact = image_sources(plain.bvh(), plain.surfaces(), plain.materials(), S, L, 6);
     for (a, b) in paths.iter().zip(&exact) {
         assert!(
             rel(a.length, b.length) <= 1e-5,
@@ -432,7 +432,7 @@ fn listener_on_primary_frustum_boundaries() {
                 ..options(5, 8)
             };
             let traced = scene.find_paths(S, &[l], &opts).paths.remove(0);
-            let exact = image_sources(scene.bvh(), scene.surfaces(), &scene.materials, S, l, 5);
+            let exact = image_sources(scene.bvh(), scene.surfaces(), scene.materials(), S, l, 5);
             // Level with the source, some images are reached only through a
             // wall edge (see `paths_through_a_wall_edge_are_counted_once`).
             assert_eq!(exact.len(), box_image_count(5), "{what}");
@@ -828,7 +828,14 @@ fn moving_panel_with_set_transform() {
 fn paths_through_a_wall_edge_are_counted_once() {
     let scene = AcousticScene::new(&shoebox(0.2));
     for (l, order) in [(DVec3::new(7.3, S.y, S.z), 5), (S, 4)] {
-        let exact = image_sources(scene.bvh(), scene.surfaces(), &scene.materials, S, l, order);
+        let exact = image_sources(
+            scene.bvh(),
+            scene.surfaces(),
+            scene.materials(),
+            S,
+            l,
+            order,
+        );
         assert_distinct_images(&exact, "edge");
         assert_eq!(exact.len(), box_image_count(order), "listener {l}");
         let paths = check_exact(&scene, S, l, order as u32, 8, "edge");

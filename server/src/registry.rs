@@ -455,7 +455,9 @@ impl Registry {
         self.store
             .put_scene(&entry.id, &entry.meta, &document)
             .map_err(ApiError::storage)?;
-        live.acoustic.materials = scene.materials.clone();
+        live.acoustic
+            .set_materials(scene.materials.clone())
+            .map_err(ApiError::from_engine)?;
         live.scene = scene;
         Ok(entry.bump(&mut live))
     }

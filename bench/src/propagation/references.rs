@@ -103,7 +103,7 @@ pub fn run(
         .iter()
         .map(|g| {
             1 + scene
-                .materials
+                .materials()
                 .get(usize::from(g.material))
                 .is_some_and(Material::transmits) as usize
         })
@@ -137,7 +137,7 @@ pub fn run(
                 image_sources(
                     scene.bvh(),
                     scene.surfaces(),
-                    &scene.materials,
+                    scene.materials(),
                     source,
                     listener,
                     order as usize,

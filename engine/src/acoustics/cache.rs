@@ -8,7 +8,6 @@ use super::beams::Beams;
 use super::deadline::Deadline;
 use super::tracer::{trace_keeping, TraceOptions};
 use super::{AcousticScene, FoundPaths};
-use crate::scene::Material;
 use crate::Result;
 
 /// Beams per source, valid for one scene revision, trace options and
@@ -32,14 +31,13 @@ impl Default for BeamCache {
     }
 }
 
-/// Everything beams depend on besides the source. Materials are compared
-/// too: they are a public field, changed without a revision, and their
-/// absorption decides where the energy threshold stops tracing.
+/// Everything beams depend on besides the source: the scene's revision
+/// (geometry and materials, whose absorption decides where the energy
+/// threshold stops tracing) and the options.
 #[derive(Debug, PartialEq)]
 struct Key {
     revision: u64,
     options: TraceOptions,
-    materials: Vec<Material>,
 }
 
 fn bits(p: DVec3) -> [u64; 3] {
@@ -68,17 +66,15 @@ impl BeamCache {
         options: &TraceOptions,
         sources: &[DVec3],
     ) {
-        let stale = self.key.as_ref().is_none_or(|k| {
-            k.revision != scene.revision()
-                || k.options != *options
-                || k.materials != scene.materials
-        });
+        let stale = self
+            .key
+            .as_ref()
+            .is_none_or(|k| k.revision != scene.revision() || k.options != *options);
         if stale {
             self.entries.clear();
             self.key = Some(Key {
                 revision: scene.revision(),
                 options: options.clone(),
-                materials: scene.materials.clone(),
             });
         }
         let wanted: Vec<[u64; 3]> = sources.iter().map(|&s| bits(s)).collect();

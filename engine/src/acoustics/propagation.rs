@@ -355,7 +355,7 @@ pub fn arrival(
     let mut gain: Bands = [1.0; BAND_COUNT];
     for v in &p.vertices {
         let group = scene.surfaces().group(v.event.group());
-        if let Some(m) = scene.materials.get(group.material as usize) {
+        if let Some(m) = scene.materials().get(group.material as usize) {
             for (b, g) in gain.iter_mut().enumerate() {
                 *g *= if v.event.is_transmission() {
                     m.transmission[b].sqrt()
@@ -394,13 +394,13 @@ fn sound_path(
             let material = scene.surfaces().group(v.event.group()).material as usize;
             SurfaceEvent {
                 object: scene
-                    .object_names
+                    .object_names()
                     .get(v.object as usize)
                     .cloned()
                     .unwrap_or_default(),
                 triangle: v.triangle,
                 material: scene
-                    .materials
+                    .materials()
                     .get(material)
                     .map(|m| m.name.clone())
                     .unwrap_or_default(),

@@ -19,8 +19,10 @@ use crate::{Error, Result};
 /// What sound propagation reads of a scene.
 #[derive(Clone, Debug)]
 pub struct AcousticScene {
-    pub materials: Vec<Material>,
-    pub object_names: Vec<String>,
+    /// Changed only by [`Self::set_materials`], which moves the revision:
+    /// absorption decides where tracing stops, so caches key on it.
+    materials: Vec<Material>,
+    object_names: Vec<String>,
     bvh: SceneBvh,
     surfaces: Surfaces,
     revision: u64,
@@ -55,10 +57,35 @@ impl AcousticScene {
         }
     }
 
-    /// Changes with every [`Self::set_transform`] and [`Self::update_mesh`]
-    /// (and differs between scenes): what traced beams are valid for.
+    /// Changes with every [`Self::set_transform`], [`Self::update_mesh`]
+    /// and [`Self::set_materials`] (and differs between scenes): what
+    /// traced beams are valid for.
     pub fn revision(&self) -> u64 {
         self.revision
+    }
+
+    /// The material table; triangles hold indices into it.
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    pub fn object_names(&self) -> &[String] {
+        &self.object_names
+    }
+
+    /// Replaces the material table. Triangles keep their indices, so the
+    /// table may grow or change coefficients but not shrink.
+    pub fn set_materials(&mut self, materials: Vec<Material>) -> Result<()> {
+        if materials.len() < self.materials.len() {
+            return Err(Error::InvalidScene(format!(
+                "{} materials cannot replace {}: triangles refer to every one",
+                materials.len(),
+                self.materials.len()
+            )));
+        }
+        self.revision = next_revision();
+        self.materials = materials;
+        Ok(())
     }
 
     pub fn bvh(&self) -> &SceneBvh {
