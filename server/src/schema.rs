@@ -25,12 +25,17 @@ pub struct Vector3;
 /// `[x, y, z, w]`: a rotation quaternion.
 pub struct Quaternion;
 
+/// The smallest magnitude a JSON number read as `f32` rounds to infinity
+/// from: `f32::MAX` plus half its last place. Below it a number rounds to a
+/// finite `f32` and is taken; from it on it is refused as not finite.
+const F32_OVERFLOW: f64 = f32::MAX as f64 + (1u128 << 103) as f64;
+
 fn finite_f32_array(len: usize, description: &str) -> RefOr<Schema> {
     let component = ObjectBuilder::new()
         .schema_type(Type::Number)
         .format(Some(SchemaFormat::KnownFormat(KnownFormat::Float)))
-        .minimum(Some(f64::from(-f32::MAX)))
-        .maximum(Some(f64::from(f32::MAX)));
+        .exclusive_minimum(Some(-F32_OVERFLOW))
+        .exclusive_maximum(Some(F32_OVERFLOW));
     ArrayBuilder::new()
         .items(component)
         .min_items(Some(len))
@@ -392,6 +397,14 @@ mod tests {
             .collect();
         taken.sort_unstable();
         assert_eq!(documented, taken);
+    }
+
+    #[test]
+    fn the_f32_bound_is_where_reading_overflows() {
+        let read = |x: f64| serde_json::from_str::<f32>(&x.to_string()).unwrap();
+        assert_eq!(read(F32_OVERFLOW.next_down()), f32::MAX);
+        assert!(read(F32_OVERFLOW).is_infinite());
+        assert!(read(-F32_OVERFLOW).is_infinite());
     }
 
     #[test]
