@@ -518,16 +518,28 @@ fn reloadable(scene: &Scene) -> Result<String, ApiError> {
 }
 
 /// A stored scene with its overlays applied.
+/// The stored document with its overlays. An overlay that no longer
+/// applies (written by an older server that checked less) is logged and
+/// skipped: the object keeps its previous state, the scene stays served.
 fn restore(s: StoredScene) -> frusta_engine::Result<(SceneMeta, Scene)> {
     let mut scene = Scene::from_json_str(&s.document, None)?;
+    let skipped = |object: u32, e: frusta_engine::Error| {
+        tracing::error!(scene = %s.id, object, error = %e, "stored object edit does not load; skipped");
+    };
     for (object, t) in s.transforms {
         if let Some(o) = scene.objects.get_mut(object as usize) {
-            o.transform = t.validated()?;
+            match t.validated() {
+                Ok(t) => o.transform = t,
+                Err(e) => skipped(object, e),
+            }
         }
     }
     for (object, positions) in s.positions {
         if let Some(o) = scene.objects.get_mut(object as usize) {
-            o.mesh = TriangleMesh::new(positions, o.mesh.triangles().to_vec())?;
+            match TriangleMesh::new(positions, o.mesh.triangles().to_vec()) {
+                Ok(mesh) => o.mesh = mesh,
+                Err(e) => skipped(object, e),
+            }
         }
     }
     Ok((s.meta, scene))
@@ -678,6 +690,37 @@ mod tests {
         let second = at_reservation(&server.state, post_json("/v1/scenes?id=other", &rival));
         server.send(post_json("/v1/scenes?id=other", BOX_DOC)).await;
         assert_eq!(second.recv().unwrap().1, "urn:frusta:problem:scene-exists");
+    }
+
+    #[tokio::test]
+    async fn a_stored_edit_that_no_longer_loads_costs_that_edit_not_the_scene() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let zero = frusta_engine::geometry::RigidTransform {
+            rotation: glam::Quat::from_xyzw(0.0, 0.0, 0.0, 0.0),
+            translation: glam::Vec3::X,
+        };
+        let overlay = crate::store::ObjectOverlay {
+            object: 1,
+            transform: Some(&zero),
+            positions: None,
+        };
+        let registry = server.state.registry();
+        registry
+            .store()
+            .put_object_edits("box", &[overlay])
+            .unwrap();
+        let server = server.restart();
+        let entry = server
+            .state
+            .registry()
+            .get("box")
+            .expect("the scene is still served");
+        let panel = &entry.read().scene.objects[1];
+        assert_eq!(
+            panel.transform,
+            frusta_engine::geometry::RigidTransform::IDENTITY
+        );
     }
 
     #[tokio::test]

@@ -36,14 +36,23 @@ impl RigidTransform {
         if !rotation.is_finite() || !translation.is_finite() {
             return Err(Error::InvalidTransform("non-finite component".into()));
         }
-        let len = rotation.length();
+        // In f64: the f32 length of a quaternion with components past
+        // about 1.8e19 overflows, and dividing by it gave zero.
+        let q = glam::DQuat::from_xyzw(
+            rotation.x.into(),
+            rotation.y.into(),
+            rotation.z.into(),
+            rotation.w.into(),
+        );
+        let len = q.length();
         if len < 1e-6 {
             return Err(Error::InvalidTransform(
                 "rotation quaternion has zero length".into(),
             ));
         }
+        let unit = q / len;
         Ok(Self {
-            rotation: rotation / len,
+            rotation: Quat::from_xyzw(unit.x as f32, unit.y as f32, unit.z as f32, unit.w as f32),
             translation,
         })
     }
@@ -107,5 +116,26 @@ mod tests {
     fn rejects_bad_rotations() {
         assert!(RigidTransform::new(Quat::from_xyzw(0.0, 0.0, 0.0, 0.0), Vec3::ZERO).is_err());
         assert!(RigidTransform::new(Quat::IDENTITY, Vec3::new(f32::NAN, 0.0, 0.0)).is_err());
+    }
+
+    #[test]
+    fn huge_and_tiny_quaternions_normalise() {
+        // f32's length of these overflows (or underflows) and the old
+        // division gave a zero quaternion that reloads as an error.
+        for q in [
+            Quat::from_xyzw(1e20, 0.0, 0.0, 0.0),
+            Quat::from_xyzw(f32::MAX, f32::MAX, 0.0, 0.0),
+        ] {
+            let t = RigidTransform::new(q, Vec3::ZERO).unwrap();
+            assert!(
+                (t.rotation.length() - 1.0).abs() < 1e-6,
+                "{q:?} -> {:?}",
+                t.rotation
+            );
+            assert!(t.validated().is_ok());
+        }
+        let tiny = Quat::from_xyzw(0.0, 3e-6, 0.0, 0.0);
+        let t = RigidTransform::new(tiny, Vec3::ZERO).unwrap();
+        assert_eq!(t.rotation, Quat::from_xyzw(0.0, 1.0, 0.0, 0.0));
     }
 }
