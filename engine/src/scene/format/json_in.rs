@@ -130,9 +130,13 @@ impl<'de> Visitor<'de> for MeshVisitor {
         let mut file = None;
         let mut materials = None;
         let mut generated: Option<MeshSpec> = None;
-        let mut keys = 0;
+        // Distinct keys: a repeated one replaces its value, as serde_json's
+        // maps do.
+        let mut keys: Vec<String> = Vec::new();
         while let Some(key) = map.next_key::<String>()? {
-            keys += 1;
+            if !keys.contains(&key) {
+                keys.push(key.clone());
+            }
             let with = |what: &str, e: A::Error| de::Error::custom(format!("{what}: {e}"));
             match key.as_str() {
                 "vertices" => vertices = Some(map.next_value().map_err(|e| with("inline mesh", e))?),
@@ -140,11 +144,11 @@ impl<'de> Visitor<'de> for MeshVisitor {
                     triangles = Some(map.next_value().map_err(|e| with("inline mesh", e))?)
                 }
                 "file" => file = Some(map.next_value().map_err(|e| with("file mesh", e))?),
-                "materials" => materials = Some(map.next_value::<MeshMaterials>().map_err(|_| {
+                "materials" => materials = map.next_value::<Option<MeshMaterials>>().map_err(|_| {
                     de::Error::custom(
                         "mesh materials: a list of names (inline meshes) or a {file name: material} map (file meshes)",
                     )
-                })?),
+                })?,
                 "box_room" => generated = Some(MeshSpec::BoxRoom(map.next_value().map_err(|e| with(&key, e))?)),
                 "l_room" => generated = Some(MeshSpec::LRoom(map.next_value().map_err(|e| with(&key, e))?)),
                 "two_rooms" => generated = Some(MeshSpec::TwoRooms(map.next_value().map_err(|e| with(&key, e))?)),
@@ -191,7 +195,7 @@ impl<'de> Visitor<'de> for MeshVisitor {
                     },
                 }))
             }
-            (false, None, Some(generated)) if keys == 1 => Ok(generated),
+            (false, None, Some(generated)) if keys.len() == 1 => Ok(generated),
             _ => Err(de::Error::custom(MESH_FORMS)),
         }
     }

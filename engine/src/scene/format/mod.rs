@@ -373,6 +373,16 @@ mod tests {
         assert!(e.contains("a mesh is"), "{e}");
         let e = mesh("[1, 2]");
         assert!(e.contains("a mesh is"), "{e}");
+        // What the document format always took still loads.
+        let ok = |m: &str| {
+            let doc =
+                format!(r#"{{"objects": [{{"name": "a", "material": "rigid", "mesh": {m}}}]}}"#);
+            Scene::from_json_str(&doc, None).unwrap_or_else(|e| panic!("{m}: {e}"))
+        };
+        ok(r#"{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]], "materials": null}"#);
+        ok(
+            r#"{"box_room": {"min": [0,0,0], "max": [1,1,1]}, "box_room": {"min": [0,0,0], "max": [2,2,2]}}"#,
+        );
         let e = err(
             r#"{"objects": [{"name": "a", "mesh": {"vertices": [[0,0,0]], "triangles": [[0,1,2]]}, "material": "rigid"}]}"#,
         );
