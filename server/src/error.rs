@@ -149,12 +149,13 @@ impl ApiError {
         }
     }
 
-    /// The RFC 9457 document, also sent over WebSocket streams. An
-    /// internal error is logged here with a fresh id that the document
-    /// carries too, so what a client reports can be found in the log.
+    /// The RFC 9457 document, also sent over WebSocket streams. A 500
+    /// (ours, or one a layer made) is logged here with a fresh id that the
+    /// document carries too, so what a client reports can be found in the log.
     pub fn problem(&self) -> Problem {
         let (kind, title) = self.kind();
-        let error_id = matches!(self, Self::Internal(_)).then(|| {
+        let unexpected = self.status() == StatusCode::INTERNAL_SERVER_ERROR;
+        let error_id = unexpected.then(|| {
             let id = new_error_id();
             tracing::error!(error_id = %id, error = %self, "internal error");
             id
@@ -205,11 +206,9 @@ pub struct Problem {
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let status = self.status();
-        // Internal errors are logged with their id by `problem`.
-        let expected = matches!(
-            self,
-            Self::Busy { .. } | Self::UploadsBusy(_) | Self::Internal(_)
-        );
+        // 500s are logged with their id by `problem`.
+        let expected = matches!(self, Self::Busy { .. } | Self::UploadsBusy(_))
+            || status == StatusCode::INTERNAL_SERVER_ERROR;
         if status.is_server_error() && !expected {
             tracing::error!(error = %self, "request failed");
         }
