@@ -475,6 +475,8 @@ fn prepare(
             live.scene.objects.len()
         )));
     };
+    // The checks a stream makes on arrival, then what needs the object.
+    edit.check(current.mesh.positions().len())?;
     let transform = if edit.rotation.is_some() || edit.translation.is_some() {
         let rotation = edit
             .rotation
@@ -487,14 +489,6 @@ fn prepare(
         None
     };
     let mesh = match &edit.vertices {
-        Some(v) if v.len() != current.mesh.positions().len() => {
-            return Err(ApiError::from_engine(
-                frusta_engine::Error::VertexCountMismatch {
-                    expected: current.mesh.positions().len(),
-                    actual: v.len(),
-                },
-            ))
-        }
         Some(v) => Some(
             TriangleMesh::new(v.clone(), current.mesh.triangles().to_vec())
                 .map_err(ApiError::from_engine)?,
