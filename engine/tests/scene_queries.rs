@@ -8,7 +8,10 @@ use frusta_engine::bvh::{BuildOptions, MeshBvh, UpdateAction, DEFAULT_REBUILD_TH
 use frusta_engine::geometry::{shapes, Ray, RigidTransform, TriangleMesh};
 use frusta_engine::query::SceneBvh;
 use frusta_engine::scene::{Material, Scene, SceneObject};
-use glam::{Quat, Vec3};
+use std::collections::BTreeSet;
+use std::ops::ControlFlow;
+
+use glam::{DQuat, DVec3, Quat, Vec3};
 
 fn object(name: &str, mesh: TriangleMesh, material: u16, transform: RigidTransform) -> SceneObject {
     SceneObject {
@@ -143,4 +146,183 @@ fn deforming_an_object_refits_only_that_object() {
     let stats = bvh.stats();
     assert_eq!(stats.objects.len(), 3);
     assert_eq!(stats.triangles, scene.triangle_count());
+}
+
+/// Corners of every triangle of every object in the frame of object
+/// `frame`, in f64: moved to the world and back with f64 rotations.
+fn triangles_in_frame_f64(scene: &Scene, frame: usize) -> Vec<Vec<[DVec3; 3]>> {
+    let motion = |t: &RigidTransform| {
+        let q = t.rotation;
+        let rot = DQuat::from_xyzw(q.x.into(), q.y.into(), q.z.into(), q.w.into()).normalize();
+        (rot, t.translation.as_dvec3())
+    };
+    let (frame_rot, frame_shift) = motion(&scene.objects[frame].transform);
+    scene
+        .objects
+        .iter()
+        .map(|obj| {
+            let (rot, shift) = motion(&obj.transform);
+            let p = obj.mesh.positions();
+            obj.mesh
+                .triangles()
+                .iter()
+                .map(|tri| {
+                    tri.map(|v| {
+                        let world = rot * p[v as usize].as_dvec3() + shift;
+                        frame_rot.inverse() * (world - frame_shift)
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Möller–Trumbore in f64: `(t, u, v)` of the ray's crossing of the
+/// triangle's plane, if the plane is crossed.
+fn crossing(o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]) -> Option<(f64, f64, f64)> {
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-18 {
+        return None;
+    }
+    let s = o - a;
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    Some((e2.dot(q) / det, u, v))
+}
+
+#[test]
+fn all_hits_are_every_triangle_a_ray_crosses() {
+    let scene = test_scene();
+    assert!(
+        scene.objects[0].transform.is_identity(),
+        "frame 0 is the world"
+    );
+    let bvh = SceneBvh::build(&scene, &BuildOptions::default());
+    let world: Vec<([DVec3; 3], (u32, u32))> = triangles_in_frame_f64(&scene, 0)
+        .into_iter()
+        .enumerate()
+        .flat_map(|(o, tris)| {
+            tris.into_iter()
+                .enumerate()
+                .map(move |(t, c)| (c, (o as u32, t as u32)))
+        })
+        .collect();
+    let mut rng = Rng(77);
+    let mut clear_hits = 0;
+    for _ in 0..2_000 {
+        let ray = Ray::new(rng.direction() * rng.range(0.0, 9.0), rng.direction());
+        let mut found = BTreeSet::new();
+        bvh.for_each_hit(&ray, |object, triangle, _| {
+            assert!(found.insert((object, triangle)), "reported twice");
+        });
+        let (o, d) = (
+            Vec3::from(ray.origin).as_dvec3(),
+            Vec3::from(ray.dir).as_dvec3(),
+        );
+        // Inside by a margin must be found; found must be inside by a margin.
+        for (corners, owner) in &world {
+            let Some((t, u, v)) = crossing(o, d, *corners) else {
+                continue;
+            };
+            let inside = |m: f64| t > m && u > m && v > m && u + v < 1.0 - m;
+            if inside(1e-4) {
+                clear_hits += 1;
+                assert!(found.contains(owner), "missed {owner:?} on {ray:?}");
+            }
+            if found.contains(owner) {
+                assert!(inside(-1e-4), "{owner:?} is not on {ray:?}");
+            }
+        }
+    }
+    // Every ray leaves through a wall; a few cross an object on the way.
+    assert!(clear_hits > 2_050, "{clear_hits}");
+}
+
+/// Pairs of triangles of different objects whose boxes overlap in the
+/// frame of the first object (the frame the pair walk works in), judged in
+/// f64, as `((object, triangle), (object, triangle))`.
+fn overlapping_triangle_boxes(
+    scene: &Scene,
+    a: usize,
+    b: usize,
+) -> BTreeSet<((u32, u32), (u32, u32))> {
+    let frame = triangles_in_frame_f64(scene, a);
+    let boxes = |tris: &[[DVec3; 3]]| -> Vec<(DVec3, DVec3)> {
+        tris.iter()
+            .map(|c| (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2])))
+            .collect()
+    };
+    let (ba, bb) = (boxes(&frame[a]), boxes(&frame[b]));
+    let mut pairs = BTreeSet::new();
+    for (x, (alo, ahi)) in ba.iter().enumerate() {
+        for (y, (blo, bhi)) in bb.iter().enumerate() {
+            if alo.cmple(*bhi).all() && ahi.cmpge(*blo).all() {
+                pairs.insert(((a as u32, x as u32), (b as u32, y as u32)));
+            }
+        }
+    }
+    pairs
+}
+
+#[test]
+fn the_pair_walk_finds_every_overlapping_pair_of_triangles() {
+    let mut scene = test_scene();
+    // A second ball through the ring and one touching the room's wall.
+    let tilt = Quat::from_axis_angle(Vec3::new(0.2, 1.0, -0.4).normalize(), 1.1);
+    scene.objects.push(object(
+        "ball2",
+        shapes::icosphere(0.8, 2),
+        1,
+        RigidTransform::new(tilt, Vec3::new(-2.2, 0.3, 3.0)).unwrap(),
+    ));
+    scene.objects.push(object(
+        "ball3",
+        shapes::icosphere(0.5, 2),
+        0,
+        RigidTransform::new(tilt.inverse(), Vec3::new(9.7, -2.0, 1.0)).unwrap(),
+    ));
+    let bvh = SceneBvh::build(&scene, &BuildOptions::default());
+    let mut object_pairs = BTreeSet::new();
+    bvh.overlapping_objects(|a, b| {
+        assert!(object_pairs.insert((a, b)), "({a}, {b}) twice");
+        ControlFlow::Continue(())
+    });
+    let n = scene.objects.len();
+    let mut touching = 0;
+    for a in 0..n {
+        for b in a + 1..n {
+            let brute = overlapping_triangle_boxes(&scene, a, b);
+            if brute.is_empty() {
+                continue;
+            }
+            touching += 1;
+            assert!(object_pairs.contains(&(a as u32, b as u32)), "({a}, {b})");
+            let (ids_a, ids_b) = (
+                bvh.instances()[a].bvh().prim_ids(),
+                bvh.instances()[b].bvh().prim_ids(),
+            );
+            let mut found = BTreeSet::new();
+            bvh.overlapping_leaves(a as u32, b as u32, |la, lb| {
+                for x in la.slots() {
+                    for y in lb.slots() {
+                        let pair = ((a as u32, ids_a[x]), (b as u32, ids_b[y]));
+                        if brute.contains(&pair) {
+                            found.insert(pair);
+                        }
+                    }
+                }
+                ControlFlow::Continue(())
+            })
+            .unwrap();
+            assert_eq!(found, brute, "({a}, {b})");
+        }
+    }
+    // The ring and ball2, the room and ball3.
+    assert_eq!(touching, 2);
+    assert!(bvh
+        .overlapping_leaves(0, 9, |_, _| ControlFlow::Continue(()))
+        .is_err());
 }

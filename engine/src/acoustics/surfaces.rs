@@ -78,27 +78,27 @@ impl Surfaces {
     pub fn new(bvh: &SceneBvh) -> Self {
         let mut object_base = Vec::with_capacity(bvh.object_count());
         let mut total = 0u32;
-        for i in &bvh.instances {
+        for i in bvh.instances() {
             object_base.push(total);
-            total += i.bvh.triangle_count() as u32;
+            total += i.bvh().triangle_count() as u32;
         }
         let mut corners = Vec::with_capacity(total as usize);
         let mut materials = Vec::with_capacity(total as usize);
-        for i in &bvh.instances {
-            corners.par_extend(i.bvh.leaf_triangles().par_iter().map(|tri| {
+        for i in bvh.instances() {
+            corners.par_extend(i.bvh().leaf_triangles().par_iter().map(|tri| {
                 tri.map(|p| {
-                    if i.identity {
+                    if i.is_identity() {
                         p
                     } else {
-                        i.to_world.transform_point(p)
+                        i.to_world().transform_point(p)
                     }
                 })
             }));
             materials.extend(
-                i.bvh
+                i.bvh()
                     .prim_ids()
                     .iter()
-                    .map(|&t| i.materials.get(t as usize).copied().unwrap_or(0)),
+                    .map(|&t| i.materials().get(t as usize).copied().unwrap_or(0)),
             );
         }
         let b = bvh.bounds();
@@ -112,21 +112,21 @@ impl Surfaces {
         // plane by up to 1e-7 and move a fourth-order image by tens of
         // micrometres.
         let mut planes = Vec::with_capacity(total as usize);
-        for i in &bvh.instances {
-            let q = i.to_world.rotation;
+        for i in bvh.instances() {
+            let q = i.to_world().rotation;
             let rotation =
                 DQuat::from_xyzw(q.x.into(), q.y.into(), q.z.into(), q.w.into()).normalize();
-            let translation = i.to_world.translation.as_dvec3();
-            planes.par_extend(i.bvh.leaf_triangles().par_iter().map(|tri| {
+            let translation = i.to_world().translation.as_dvec3();
+            planes.par_extend(i.bvh().leaf_triangles().par_iter().map(|tri| {
                 triangle_plane(&tri.map(|p| rotation * DVec3::from(Vec3::from(p)) + translation))
             }));
         }
         let (slot_group, groups) = group_planes(&planes, &materials, scale);
         let mut mesh_group = vec![NO_GROUP; total as usize];
         let mut mesh_slot = vec![0; total as usize];
-        for (o, i) in bvh.instances.iter().enumerate() {
+        for (o, i) in bvh.instances().iter().enumerate() {
             let base = object_base[o] as usize;
-            for (slot, &t) in i.bvh.prim_ids().iter().enumerate() {
+            for (slot, &t) in i.bvh().prim_ids().iter().enumerate() {
                 mesh_group[base + t as usize] = slot_group[base + slot];
                 mesh_slot[base + t as usize] = slot as u32;
             }

@@ -20,7 +20,7 @@ use glam::DVec3;
 
 use super::beams::Beams;
 use super::classify::{classify, NearestDepths, Target};
-use super::cull::{for_each_leaf, BoxCull};
+use super::cull::{box_cull, for_each_leaf};
 use super::deadline::{Deadline, CLOCK_PERIOD};
 use super::frustum::Frustum;
 use super::merge::merge_cells;
@@ -121,7 +121,6 @@ struct Scratch {
     /// `(group, cell)` pairs that survive occlusion.
     touched: Vec<(u32, u32)>,
     rects: Vec<[u32; 4]>,
-    stack: Vec<(u32, f32)>,
     /// The nearest hit of each sample ray ([`CellAssignment::Sampled`];
     /// empty otherwise).
     samples: NearestDepths,
@@ -459,18 +458,17 @@ fn classify_culled(
     stats: &mut TraceStats,
 ) -> bool {
     let scale = input.surfaces.scale();
-    let cull = BoxCull::new(f, (scale * 1e-6) as f32);
+    let cull = box_cull(f, (scale * 1e-6) as f32);
     let Scratch {
         cover,
         contacts,
-        stack,
         samples,
         ..
     } = scratch;
     let sampled = sample_budget.is_some();
     let budget = sample_budget.unwrap_or(u64::MAX);
     let mut tested = 0u64;
-    for_each_leaf(input.bvh, input.surfaces, &cull, stack, |first, count| {
+    for_each_leaf(input.bvh, input.surfaces, &cull, |first, count| {
         for i in first..first + count {
             let (corners, group) = input.surfaces.slot(i);
             if group == NO_GROUP || Some(group) == skip {

@@ -7,7 +7,8 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::wide::{Bvh4, WideRay};
+use super::traverse::{Flow, RayTest};
+use super::wide::Bvh4;
 use super::{BuildOptions, Bvh};
 use crate::geometry::{trace_batch, Aabb, Ray, TriangleHit, TriangleMesh, WatertightRay};
 use crate::{Error, Result};
@@ -199,27 +200,24 @@ impl MeshBvh {
 
     /// Traces `ray` and calls `on_hit(slot, hit, t_max)` for every triangle
     /// it meets within the current range; `on_hit` may shrink `t_max` and
-    /// returns `true` to stop. Invalid rays (non-finite or zero direction)
-    /// meet nothing.
+    /// breaks to stop. Invalid rays (non-finite or zero direction) meet
+    /// nothing.
     #[inline(always)]
-    fn walk(&self, ray: &Ray, mut on_hit: impl FnMut(u32, TriangleHit, &mut f32) -> bool) {
+    fn walk(&self, ray: &Ray, mut on_hit: impl FnMut(u32, TriangleHit, &mut f32) -> Flow) {
         if !ray.is_valid() {
             return;
         }
-        let boxes = WideRay::new(ray);
         let tri_ray = WatertightRay::new(ray);
         let t_min = ray.t_min;
         self.bvh
-            .traverse(&boxes, t_min, ray.t_max, |first, count, t_max| {
+            .walk(&RayTest::new(ray), ray.t_max, |first, count, t_max| {
                 let leaf = &self.triangles[first as usize..(first + count) as usize];
                 for (i, [a, b, c]) in leaf.iter().enumerate() {
                     if let Some(h) = tri_ray.intersect(*a, *b, *c, t_min, *t_max) {
-                        if on_hit(first + i as u32, h, t_max) {
-                            return true;
-                        }
+                        on_hit(first + i as u32, h, t_max)?;
                     }
                 }
-                false
+                Flow::Continue(())
             });
     }
 
@@ -230,7 +228,7 @@ impl MeshBvh {
         self.walk(ray, |slot, h, t_max| {
             *t_max = h.t;
             best = Some((slot, h));
-            false
+            Flow::Continue(())
         });
         best.map(|(slot, h)| {
             let [a, b, c] = self.triangles[slot as usize];
@@ -250,7 +248,7 @@ impl MeshBvh {
         let mut hit = false;
         self.walk(ray, |_, _, _| {
             hit = true;
-            true
+            Flow::Break(())
         });
         hit
     }
@@ -261,7 +259,7 @@ impl MeshBvh {
     pub fn for_each_hit(&self, ray: &Ray, mut visit: impl FnMut(u32, f32)) {
         self.walk(ray, |slot, h, _| {
             visit(self.prim_ids[slot as usize], h.t);
-            false
+            Flow::Continue(())
         });
     }
 

@@ -5,9 +5,13 @@
 //! - [`build`]: binned SAH, Morton (LBVH) and hybrid builders;
 //! - [`refit`]: bottom-up box updates after geometry moves, with the rebuild
 //!   heuristic of Lauterbach's dissertation (section 4.1.5);
-//! - [`traverse`]: the robust ray/box test and ordered traversal;
+//! - [`traverse`]: the traversal core: one ordered walk per tree width
+//!   driven by a node test per query kind (ray, frustum, box), and the
+//!   pair walk of two trees;
 //! - [`wide`]: the 4-wide tree collapsed from a binary build, which meshes
-//!   are traced with, refitted and judged by the rebuild heuristic.
+//!   are traced with, refitted and judged by the rebuild heuristic;
+//! - [`world`]: the two-level world of a scene, instances with transforms
+//!   over per-object trees, and the walk over its top level.
 
 pub mod build;
 mod mesh_bvh;
@@ -15,11 +19,13 @@ pub mod node;
 pub mod refit;
 pub mod traverse;
 pub mod wide;
+pub mod world;
 
 pub use build::{BuildMethod, BuildOptions};
 pub use mesh_bvh::{MeshBvh, MeshHit, RefitReport, UpdateAction, UpdateReport};
 pub use node::Node;
 pub use refit::DEFAULT_REBUILD_THRESHOLD;
+pub use world::{Instance, ObjectStats, SceneBvh, SceneBvhStats};
 
 /// A binary BVH over a set of primitives given by their boxes.
 ///

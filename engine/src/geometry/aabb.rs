@@ -1,5 +1,7 @@
 use glam::{Vec3, Vec3A};
 
+use super::RigidTransform;
+
 /// An axis-aligned bounding box. The empty box has `min = +inf`, `max = -inf`
 /// so that growing it by any point gives that point's box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,6 +96,28 @@ impl Aabb {
 
     pub fn contains(&self, o: &Aabb) -> bool {
         o.min.cmpge(self.min).all() && o.max.cmple(self.max).all()
+    }
+
+    /// Whether the boxes overlap or touch.
+    #[inline]
+    pub fn overlaps(&self, o: &Aabb) -> bool {
+        self.min.cmple(o.max).all() && self.max.cmpge(o.min).all()
+    }
+
+    /// The box of this box moved by `t`: it surely contains the moved
+    /// contents, widened by a few ulps of its magnitude since rotation
+    /// rounds. An empty box stays empty.
+    pub fn transformed(&self, t: &RigidTransform) -> Aabb {
+        if self.is_empty() {
+            return Aabb::EMPTY;
+        }
+        let moved = self
+            .corners()
+            .iter()
+            .fold(Aabb::EMPTY, |acc, &c| acc.grow(t.transform_point(c)));
+        let m = moved.min.abs().max(moved.max.abs()).max_element();
+        let pad = Vec3A::splat(m * 4.0 * f32::EPSILON);
+        Aabb::new(moved.min - pad, moved.max + pad)
     }
 
     /// The eight corners, for transforming a box.

@@ -85,6 +85,14 @@ impl RigidTransform {
         }
     }
 
+    /// This motion followed by `after`.
+    pub fn then(&self, after: &RigidTransform) -> Self {
+        Self {
+            rotation: (after.rotation * self.rotation).normalize(),
+            translation: after.rotation * self.translation + after.translation,
+        }
+    }
+
     #[inline]
     pub fn transform_point(&self, p: Vec3A) -> Vec3A {
         self.rotation * p + Vec3A::from(self.translation)
@@ -110,6 +118,17 @@ mod tests {
         let p = Vec3A::new(0.3, -2.0, 9.0);
         let back = t.inverse().transform_point(t.transform_point(p));
         assert!((back - p).length() < 1e-5);
+    }
+
+    #[test]
+    fn then_applies_both_motions_in_order() {
+        let a = RigidTransform::new(Quat::from_rotation_z(0.5), Vec3::new(1.0, 2.0, 3.0)).unwrap();
+        let b =
+            RigidTransform::new(Quat::from_rotation_x(-1.2), Vec3::new(-4.0, 0.0, 2.0)).unwrap();
+        let p = Vec3A::new(0.7, -1.0, 5.0);
+        let both = a.then(&b).transform_point(p);
+        assert!((both - b.transform_point(a.transform_point(p))).length() < 1e-5);
+        assert!((a.then(&a.inverse()).transform_point(p) - p).length() < 1e-5);
     }
 
     #[test]

@@ -1,8 +1,7 @@
 use glam::Vec3;
 
-use super::scene_bvh::{Instance, SceneBvh};
-use crate::bvh::traverse::RayBoxTest;
-use crate::bvh::MeshHit;
+use crate::bvh::traverse::{Flow, RayTest};
+use crate::bvh::{Instance, MeshHit, SceneBvh};
 use crate::geometry::{trace_batch, Ray};
 use crate::scene::MaterialId;
 
@@ -27,19 +26,19 @@ pub struct SceneHit {
     pub point: Vec3,
 }
 
-impl Instance {
-    /// The ray in this object's frame; rigid, so `t` is unchanged.
-    #[inline]
-    fn local(&self, ray: &Ray, t_max: f32) -> Ray {
-        if self.identity {
-            return Ray { t_max, ..*ray };
-        }
-        Ray {
-            origin: self.to_object.transform_point(ray.origin),
-            dir: self.to_object.transform_vector(ray.dir),
-            t_min: ray.t_min,
-            t_max,
-        }
+/// The ray in an object's frame with range end `t_max`; rigid, so `t` is
+/// unchanged.
+#[inline]
+fn local(inst: &Instance, ray: &Ray, t_max: f32) -> Ray {
+    if inst.is_identity() {
+        return Ray { t_max, ..*ray };
+    }
+    let to_object = inst.to_object();
+    Ray {
+        origin: to_object.transform_point(ray.origin),
+        dir: to_object.transform_vector(ray.dir),
+        t_min: ray.t_min,
+        t_max,
     }
 }
 
@@ -50,33 +49,24 @@ impl SceneBvh {
             return None;
         }
         let mut best: Option<(u32, MeshHit)> = None;
-        self.top.traverse(
-            &RayBoxTest::new(ray),
-            ray.t_min,
-            ray.t_max,
-            |first, count, t_max| {
-                for slot in first..first + count {
-                    let object = self.top.prim_ids[slot as usize];
-                    let inst = &self.instances[object as usize];
-                    if let Some(hit) = inst.bvh.closest_hit(&inst.local(ray, *t_max)) {
-                        *t_max = hit.t;
-                        best = Some((object, hit));
-                    }
-                }
-                false
-            },
-        );
+        self.walk_objects(&RayTest::new(ray), ray.t_max, |object, inst, t_max| {
+            if let Some(hit) = inst.bvh().closest_hit(&local(inst, ray, *t_max)) {
+                *t_max = hit.t;
+                best = Some((object, hit));
+            }
+            Flow::Continue(())
+        });
         best.map(|(object, hit)| {
-            let inst = &self.instances[object as usize];
+            let inst = &self.instances()[object as usize];
             SceneHit {
                 t: hit.t,
                 object,
                 triangle: hit.triangle,
                 u: hit.u,
                 v: hit.v,
-                normal: inst.to_world.rotation * hit.normal,
+                normal: inst.to_world().rotation * hit.normal,
                 material: inst
-                    .materials
+                    .materials()
                     .get(hit.triangle as usize)
                     .copied()
                     .unwrap_or(0),
@@ -91,21 +81,32 @@ impl SceneBvh {
             return false;
         }
         let mut hit = false;
-        self.top.traverse(
-            &RayBoxTest::new(ray),
-            ray.t_min,
-            ray.t_max,
-            |first, count, t_max| {
-                hit = self.top.prim_ids[first as usize..(first + count) as usize]
-                    .iter()
-                    .any(|&object| {
-                        let inst = &self.instances[object as usize];
-                        inst.bvh.any_hit(&inst.local(ray, *t_max))
-                    });
-                hit
-            },
-        );
+        self.walk_objects(&RayTest::new(ray), ray.t_max, |_, inst, t_max| {
+            hit = inst.bvh().any_hit(&local(inst, ray, *t_max));
+            if hit {
+                Flow::Break(())
+            } else {
+                Flow::Continue(())
+            }
+        });
         hit
+    }
+
+    /// Calls `visit(object, triangle, t)` for every triangle the ray
+    /// crosses within its range, in no particular order. Where the ray runs
+    /// through an edge or vertex shared within one object, exactly one of
+    /// the triangles there is reported (the watertight test).
+    pub fn for_each_hit(&self, ray: &Ray, mut visit: impl FnMut(u32, u32, f32)) {
+        if !ray.is_valid() {
+            return;
+        }
+        self.walk_objects(&RayTest::new(ray), ray.t_max, |object, inst, _| {
+            inst.bvh()
+                .for_each_hit(&local(inst, ray, ray.t_max), |triangle, t| {
+                    visit(object, triangle, t)
+                });
+            Flow::Continue(())
+        });
     }
 
     /// [`closest_hit`](Self::closest_hit) for many rays, in parallel.

@@ -7,11 +7,8 @@
 //! build intermediate and the top level of scenes, where nodes are few.
 
 mod refit;
-mod traverse;
 
 use glam::Vec4;
-
-pub use traverse::WideRay;
 
 use super::{Bvh, Node};
 use crate::geometry::Aabb;
@@ -36,7 +33,7 @@ pub struct Node4 {
 
 const _: () = assert!(std::mem::size_of::<Node4>() == 128);
 
-const EMPTY_NODE: Node4 = Node4 {
+pub(crate) const EMPTY_NODE: Node4 = Node4 {
     lo: [Vec4::INFINITY; 3],
     hi: [Vec4::NEG_INFINITY; 3],
     child: [u32::MAX; 4],

@@ -1,7 +1,14 @@
-use glam::Vec3A;
+//! The two-level world of a scene: one [`MeshBvh`] per object in the
+//! object's own frame, and a small top-level tree over the objects' world
+//! boxes. Moving an object rigidly changes only its transform and the top
+//! level; deforming it refits only its own tree. Queries walk the top level
+//! with [`SceneBvh::walk_objects`] and each object's tree in its frame.
+
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::traverse::pair::{overlapping_leaves, Leaf};
+use super::traverse::{Flow, NodeTest, OverlapTest};
 use crate::bvh::{BuildOptions, Bvh, MeshBvh, UpdateReport};
 use crate::geometry::{Aabb, RigidTransform, TriangleMesh};
 use crate::scene::{MaterialId, Scene};
@@ -9,22 +16,62 @@ use crate::{Error, Result};
 
 /// One object of the scene as the queries see it.
 #[derive(Clone, Debug)]
-pub(crate) struct Instance {
-    pub(crate) bvh: MeshBvh,
-    pub(crate) materials: Vec<MaterialId>,
-    pub(crate) to_world: RigidTransform,
-    pub(crate) to_object: RigidTransform,
-    /// Identity transforms skip moving the ray.
-    pub(crate) identity: bool,
+pub struct Instance {
+    bvh: MeshBvh,
+    materials: Vec<MaterialId>,
+    to_world: RigidTransform,
+    to_object: RigidTransform,
+    /// Identity transforms skip moving the query.
+    identity: bool,
+}
+
+impl Instance {
+    /// The object's tree, in its own frame.
+    #[inline]
+    pub fn bvh(&self) -> &MeshBvh {
+        &self.bvh
+    }
+
+    /// Material of each triangle, in mesh order.
+    #[inline]
+    pub fn materials(&self) -> &[MaterialId] {
+        &self.materials
+    }
+
+    #[inline]
+    pub fn to_world(&self) -> &RigidTransform {
+        &self.to_world
+    }
+
+    #[inline]
+    pub fn to_object(&self) -> &RigidTransform {
+        &self.to_object
+    }
+
+    /// Whether object and world frames coincide (no query needs moving).
+    #[inline]
+    pub fn is_identity(&self) -> bool {
+        self.identity
+    }
+
+    /// The object's box in the world.
+    pub fn world_bounds(&self) -> Aabb {
+        let b = self.bvh.bounds();
+        if self.identity {
+            b
+        } else {
+            b.transformed(&self.to_world)
+        }
+    }
 }
 
 /// The two-level acceleration structure of a scene.
 #[derive(Clone, Debug)]
 pub struct SceneBvh {
-    pub(crate) instances: Vec<Instance>,
+    instances: Vec<Instance>,
     /// Top level over the instances' world boxes; rebuilt whenever an object
     /// moves, which costs microseconds for the tens of objects a scene has.
-    pub(crate) top: Bvh,
+    top: Bvh,
     options: BuildOptions,
 }
 
@@ -70,7 +117,7 @@ impl SceneBvh {
     }
 
     fn rebuild_top(&mut self) {
-        let boxes: Vec<Aabb> = self.instances.iter().map(world_bounds).collect();
+        let boxes: Vec<Aabb> = self.instances.iter().map(Instance::world_bounds).collect();
         self.top = Bvh::build(
             &boxes,
             &BuildOptions {
@@ -84,6 +131,30 @@ impl SceneBvh {
         self.instances.len()
     }
 
+    pub fn instances(&self) -> &[Instance] {
+        &self.instances
+    }
+
+    /// Walks the top level with `test` (in world space) and calls
+    /// `visit(object, instance, bound)` for every object whose world box it
+    /// reaches, nearest key first; `visit` walks the object's tree in its
+    /// frame, may lower the bound and breaks to end the walk.
+    #[inline(always)]
+    pub fn walk_objects<T: NodeTest>(
+        &self,
+        test: &T,
+        bound: f32,
+        mut visit: impl FnMut(u32, &Instance, &mut f32) -> Flow,
+    ) {
+        self.top.walk(test, bound, |first, count, bound| {
+            for slot in first..first + count {
+                let object = self.top.prim_ids[slot as usize];
+                visit(object, &self.instances[object as usize], bound)?;
+            }
+            Flow::Continue(())
+        });
+    }
+
     /// The world box of the whole scene.
     pub fn bounds(&self) -> Aabb {
         self.top.bounds()
@@ -94,6 +165,50 @@ impl SceneBvh {
         self.instances
             .get_mut(object)
             .ok_or_else(|| Error::UnknownObject(format!("#{object} (the scene has {count})")))
+    }
+
+    /// Calls `visit(a, b)` once for every pair of objects `a < b` whose
+    /// world boxes overlap: the broad phase between objects.
+    pub fn overlapping_objects(&self, mut visit: impl FnMut(u32, u32) -> Flow) {
+        for (a, inst) in self.instances.iter().enumerate() {
+            let mut flow = Flow::Continue(());
+            let test = OverlapTest::new(inst.world_bounds());
+            self.top.walk(&test, 0.0, |first, count, _| {
+                for slot in first..first + count {
+                    let b = self.top.prim_ids[slot as usize];
+                    if b as usize > a {
+                        flow = visit(a as u32, b);
+                        flow?;
+                    }
+                }
+                Flow::Continue(())
+            });
+            if flow.is_break() {
+                return;
+            }
+        }
+    }
+
+    /// Calls `visit(leaf of a, leaf of b)` for every pair of leaves of
+    /// objects `a` and `b` whose boxes overlap in the world (leaf slots of
+    /// each object's tree; its `prim_ids` name the triangles): the pair walk
+    /// of [`overlapping_leaves`] with `b`'s tree moved into `a`'s frame.
+    pub fn overlapping_leaves(
+        &self,
+        a: u32,
+        b: u32,
+        visit: impl FnMut(Leaf, Leaf) -> Flow,
+    ) -> Result<()> {
+        let count = self.instances.len();
+        let get = |o: u32| {
+            self.instances
+                .get(o as usize)
+                .ok_or_else(|| Error::UnknownObject(format!("#{o} (the scene has {count})")))
+        };
+        let (ia, ib) = (get(a)?, get(b)?);
+        let b_to_a = (!ia.identity || !ib.identity).then(|| ib.to_world.then(&ia.to_object));
+        overlapping_leaves(ia.bvh.wide(), ib.bvh.wide(), b_to_a.as_ref(), visit);
+        Ok(())
     }
 
     /// Moves an object rigidly: only the top level changes.
@@ -149,29 +264,5 @@ impl SceneBvh {
                 + self.top.memory_bytes(),
             objects,
         }
-    }
-}
-
-/// The world box of an instance: its tree's box moved by its transform.
-fn world_bounds(i: &Instance) -> Aabb {
-    let b = i.bvh.bounds();
-    if i.identity {
-        return b;
-    }
-    b.corners()
-        .iter()
-        .fold(Aabb::EMPTY, |acc, &c| {
-            acc.grow(i.to_world.transform_point(c))
-        })
-        // Rotation rounds; widen by a few ulps of the box's magnitude so
-        // that the world box surely contains the moved geometry.
-        .padded()
-}
-
-impl Aabb {
-    fn padded(self) -> Aabb {
-        let m = self.min.abs().max(self.max.abs()).max_element();
-        let pad = Vec3A::splat(m * 4.0 * f32::EPSILON);
-        Aabb::new(self.min - pad, self.max + pad)
     }
 }
