@@ -10,7 +10,9 @@
 //! with impulse-response requests and a WebSocket stream (see `serve`);
 //! `frusta-bench soak [--minutes M] [--clients C] [--quick] [--json]
 //! [--save DIR]` runs the release server under a long mixed load and checks
-//! that nothing fails and its memory stays flat (see `soak`).
+//! that nothing fails and its memory stays flat (see `soak`);
+//! `frusta-bench update [--scene NAME] [--save DIR]` times moving and
+//! deforming one object by its size (see `update`).
 
 mod bvh_bench;
 mod mesh;
@@ -20,6 +22,7 @@ mod rays;
 mod report;
 mod serve;
 mod soak;
+mod update;
 
 use std::process::ExitCode;
 
@@ -47,6 +50,9 @@ enum Command {
     /// uploads, edits, deletes, impulse responses, queries, streams; fails
     /// on any unexpected answer or growing memory.
     Soak(soak::Args),
+    /// Moving and deforming one object of a hall: the cost by the object's
+    /// size.
+    Update(update::Args),
 }
 
 fn main() -> ExitCode {
@@ -56,6 +62,7 @@ fn main() -> ExitCode {
         Command::Propagation(args) => propagation::run(args),
         Command::Serve(args) => serve::run(args),
         Command::Soak(args) => soak::run(args),
+        Command::Update(args) => update::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
