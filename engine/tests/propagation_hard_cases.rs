@@ -297,7 +297,7 @@ fn skewed_convex_room_order_6_exact() {
     let scene = AcousticScene::new(
         &Scene::single_object("room", raw, Material::uniform("w", 0.1).unwrap()).unwrap(),
     );
-    assert_eq!(scene.surfaces().groups().len(), 6);
+    assert_eq!(scene.surfaces().group_count(), 6);
     let paths = check_exact(&scene, S, L, 6, 8, "skewed room");
     assert!(paths.len() > 100, "{}", paths.len());
     assert_distinct_images(&paths, "skewed room");

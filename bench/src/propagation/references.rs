@@ -100,8 +100,7 @@ pub fn run(
     let events: usize = scene
         .surfaces()
         .groups()
-        .iter()
-        .map(|g| {
+        .map(|(_, g)| {
             1 + scene
                 .materials()
                 .get(usize::from(g.material))

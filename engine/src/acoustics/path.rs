@@ -153,14 +153,14 @@ pub fn validate(
             // may hit either side there: it is checked against the
             // triangles of its own group instead.
             let (object, triangle) = if len <= tol {
-                surfaces.triangle_at(e.group(), b, tol)?
+                surfaces.triangle_at(bvh, e.group(), b, tol)?
             } else {
                 let slack = LEG_END_SLACK.max(tol_t);
                 let hit = first_hit(bvh, surfaces, &ray, start, 1.0 + slack, leaving)?;
                 if surfaces.group_of(hit.object, hit.triangle) == e.group() {
                     (hit.object, hit.triangle)
                 } else if (1.0 - f64::from(hit.t)) * len <= tol {
-                    surfaces.triangle_at(e.group(), b, tol)?
+                    surfaces.triangle_at(bvh, e.group(), b, tol)?
                 } else {
                     return None;
                 }

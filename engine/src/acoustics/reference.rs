@@ -26,10 +26,11 @@ pub fn image_sources(
     listener: DVec3,
     max_order: usize,
 ) -> Vec<ValidPath> {
-    let events: Vec<Event> = (0..surfaces.groups().len() as u32)
-        .flat_map(|g| {
+    let events: Vec<Event> = surfaces
+        .groups()
+        .flat_map(|(g, group)| {
             let transmits = materials
-                .get(surfaces.group(g).material as usize)
+                .get(group.material as usize)
                 .is_some_and(Material::transmits);
             std::iter::once(Event::reflection(g)).chain(transmits.then(|| Event::transmission(g)))
         })

@@ -102,7 +102,7 @@ impl AcousticScene {
         // always safe.
         self.revision = next_revision();
         self.bvh.set_transform(object, transform)?;
-        self.surfaces = Surfaces::new(&self.bvh);
+        self.surfaces.update_object(&self.bvh, object);
         Ok(())
     }
 
@@ -116,7 +116,7 @@ impl AcousticScene {
     ) -> Result<UpdateReport> {
         self.revision = next_revision();
         let report = self.bvh.update_mesh(object, mesh, materials, threshold)?;
-        self.surfaces = Surfaces::new(&self.bvh);
+        self.surfaces.update_object(&self.bvh, object);
         Ok(report)
     }
 
