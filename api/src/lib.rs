@@ -13,7 +13,7 @@ pub mod occlusion;
 pub mod problem;
 pub mod rays;
 pub mod scenes;
-pub mod stream;
 pub mod schemas;
+pub mod stream;
 
 pub use problem::Problem;

@@ -76,11 +76,17 @@ impl Server {
     }
 
     pub fn post(&self, path: &str, body: &str) -> (u16, String, Value) {
-        parts(self.client().post(path, "application/json", body.as_bytes()))
+        parts(
+            self.client()
+                .post(path, "application/json", body.as_bytes()),
+        )
     }
 
     pub fn patch(&self, path: &str, body: &str) -> (u16, String, Value) {
-        parts(self.client().patch(path, "application/json", body.as_bytes()))
+        parts(
+            self.client()
+                .patch(path, "application/json", body.as_bytes()),
+        )
     }
 
     pub fn delete(&self, path: &str) -> (u16, String, Value) {

@@ -37,7 +37,8 @@ fn upload_ir_patch_ir_changes() {
     // The panel stands between source and listener: no direct path.
     assert!(paths(&before)[0] > 5.0 + 1e-6, "{:?}", paths(&before));
     assert_eq!(before["revision"], 0);
-    let (status, _, moved) = server.patch(&format!("/v1/scenes/{id}/objects/panel"),
+    let (status, _, moved) = server.patch(
+        &format!("/v1/scenes/{id}/objects/panel"),
         r#"{"translation": [0, 3, 0]}"#,
     );
     assert_eq!(status, 200, "{moved}");
@@ -131,7 +132,8 @@ fn every_bad_input_is_a_4xx_problem() {
     assert_eq!(status, 400, "{problem}");
     assert_eq!(content_type, "application/problem+json");
     assert_eq!(problem["type"], "urn:frusta:problem:bad-upgrade");
-    let (status, _, problem) = server.patch("/v1/scenes/shoebox/objects/room",
+    let (status, _, problem) = server.patch(
+        "/v1/scenes/shoebox/objects/room",
         r#"{"vertices": [[0, 0, 0]]}"#,
     );
     assert_eq!(status, 422, "{problem}");
@@ -203,7 +205,10 @@ fn stream_with_a_moving_listener() {
         assert_eq!(answer.seq, Some(step));
         assert_eq!(answer.revision, 0);
         let direct = answer.pair.paths[0].distance_m;
-        assert!((direct - f64::from(listener[0] - 2.0)).abs() < 1e-5, "{direct}");
+        assert!(
+            (direct - f64::from(listener[0] - 2.0)).abs() < 1e-5,
+            "{direct}"
+        );
         assert!(direct > last_direct);
         last_direct = direct;
         assert_eq!(
@@ -222,7 +227,10 @@ fn stream_with_a_moving_listener() {
     stream.send(&no_listener).expect("send");
     match stream.read().expect("read") {
         Received::Error(problem) => {
-            assert_eq!(problem.kind, "urn:frusta:problem:invalid-input", "{problem}");
+            assert_eq!(
+                problem.kind, "urn:frusta:problem:invalid-input",
+                "{problem}"
+            );
             assert_eq!(problem.status, 422);
         }
         other => panic!("expected a problem, got {other:?}"),
@@ -269,7 +277,10 @@ fn streams_see_each_others_edits() {
     // The watcher is told without asking, on the same revision.
     let (seen, _) = read_answer(&mut watcher);
     assert_eq!(seen.revision, 1);
-    assert_eq!(seen.pair.paths[0].distance_m, moved.pair.paths[0].distance_m);
+    assert_eq!(
+        seen.pair.paths[0].distance_m,
+        moved.pair.paths[0].distance_m
+    );
 }
 
 #[test]
@@ -389,7 +400,10 @@ fn streams_are_capped_and_a_deleted_scene_closes_its_streams() {
     assert_eq!(server.delete("/v1/scenes/box").0, 204);
     match stream.read().expect("read") {
         Received::Error(problem) => {
-            assert_eq!(problem.kind, "urn:frusta:problem:unknown-scene", "{problem}")
+            assert_eq!(
+                problem.kind, "urn:frusta:problem:unknown-scene",
+                "{problem}"
+            )
         }
         other => panic!("expected a problem, got {other:?}"),
     }

@@ -191,12 +191,17 @@ mod tests {
             .expect("room");
         let walls = Material::uniform("walls", 0.1).expect("material");
         let scene = Scene::single_object("box", room, walls).expect("scene");
-        let options = serde_json::from_value(json!({"max_order": 2, "sample_rate": 8000}))
-            .expect("options");
+        let options =
+            serde_json::from_value(json!({"max_order": 2, "sample_rate": 8000})).expect("options");
         let source = Vec3::new(2.0, 3.0, 1.5);
         let listener = Vec3::new(7.0, 3.0, 1.2);
-        let responses = simulate(&AcousticScene::new(&scene), &[source], &[listener], &options)
-            .expect("simulate");
+        let responses = simulate(
+            &AcousticScene::new(&scene),
+            &[source],
+            &[listener],
+            &options,
+        )
+        .expect("simulate");
         let response = &responses[0];
         let mut engine = serde_json::to_value(response).expect("engine JSON");
         let ir = &response.impulse_response;

@@ -244,7 +244,10 @@ mod tests {
     fn a_request_is_the_options_beside_the_points() {
         let request = ImpulseResponseRequest::pair(Vec3::ONE, Vec3::X, Default::default());
         let json = serde_json::to_value(&request).expect("request");
-        assert_eq!(json["sources"][0]["position"], serde_json::json!([1.0, 1.0, 1.0]));
+        assert_eq!(
+            json["sources"][0]["position"],
+            serde_json::json!([1.0, 1.0, 1.0])
+        );
         assert_eq!(json["max_order"], SimulationOptions::default().max_order);
         let back: ImpulseResponseRequest = serde_json::from_value(json).expect("read back");
         assert_eq!(back, request);

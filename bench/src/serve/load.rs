@@ -75,8 +75,7 @@ fn requests(
     let mut out = Tally::default();
     while Instant::now() < end {
         let listener = points.random_listener(&mut rng);
-        let request =
-            ImpulseResponseRequest::pair(points.source, listener, options.simulation());
+        let request = ImpulseResponseRequest::pair(points.source, listener, options.simulation());
         let t = Instant::now();
         let outcome = client.post_json(path, &request).and_then(Answer::ok);
         let ms = t.elapsed().as_secs_f64() * 1e3;

@@ -32,7 +32,10 @@ pub enum Received {
     Error(Problem),
     /// The server's Close frame: 1000 when the scene was deleted, 1001 when
     /// the server shuts down.
-    Closed { code: Option<u16>, reason: String },
+    Closed {
+        code: Option<u16>,
+        reason: String,
+    },
 }
 
 impl Client {
@@ -154,7 +157,9 @@ impl Stream {
     /// The binary frame after `answer`: interleaved little-endian f32.
     fn samples(&mut self, answer: &StreamAnswer) -> Result<ImpulseResponse, Error> {
         let Message::Binary(bytes) = self.socket.read()? else {
-            return Err(Error::Protocol("the answer's samples did not follow it".into()));
+            return Err(Error::Protocol(
+                "the answer's samples did not follow it".into(),
+            ));
         };
         let pair = &answer.pair;
         let expected = pair.frames * pair.channels * 4;

@@ -24,33 +24,33 @@ pub const BODY_LIMIT: usize = 32 * 1024 * 1024;
 fn hit_output(scene: &Scene, hit: &SceneHit) -> HitOutput {
     let name_of = |names: Option<&String>| names.cloned().unwrap_or_default();
     HitOutput {
-            t: hit.t,
-            object: hit.object,
-            object_name: name_of(scene.objects.get(hit.object as usize).map(|o| &o.name)),
-            triangle: hit.triangle,
-            point: hit.point.to_array(),
-            normal: hit.normal.to_array(),
-            material: name_of(scene.materials.get(hit.material as usize).map(|m| &m.name)),
-        }
+        t: hit.t,
+        object: hit.object,
+        object_name: name_of(scene.objects.get(hit.object as usize).map(|o| &o.name)),
+        triangle: hit.triangle,
+        point: hit.point.to_array(),
+        normal: hit.normal.to_array(),
+        material: name_of(scene.materials.get(hit.material as usize).map(|m| &m.name)),
+    }
 }
 
 /// The engine silently misses invalid rays; a client sending one has a
 /// bug, so it is told which ray and why instead.
 fn ray_of(input: &RayInput, index: usize) -> Result<Ray, ApiError> {
-        let invalid = |reason| ApiError::InvalidRay { index, reason };
-        let origin = Vec3::from_array(input.origin);
-        if !origin.is_finite() {
-            return Err(invalid("origin must be finite"));
-        }
-        let direction = Vec3::from_array(input.direction)
-            .try_normalize()
-            .ok_or_else(|| invalid("direction must be finite and non-zero"))?;
-        let max_distance = match input.max_distance {
-            None => f32::INFINITY,
-            Some(d) if d > 0.0 && d.is_finite() => d,
-            Some(_) => return Err(invalid("max_distance must be finite and positive")),
-        };
-        Ok(Ray::new(origin, direction).with_range(0.0, max_distance))
+    let invalid = |reason| ApiError::InvalidRay { index, reason };
+    let origin = Vec3::from_array(input.origin);
+    if !origin.is_finite() {
+        return Err(invalid("origin must be finite"));
+    }
+    let direction = Vec3::from_array(input.direction)
+        .try_normalize()
+        .ok_or_else(|| invalid("direction must be finite and non-zero"))?;
+    let max_distance = match input.max_distance {
+        None => f32::INFINITY,
+        Some(d) if d > 0.0 && d.is_finite() => d,
+        Some(_) => return Err(invalid("max_distance must be finite and positive")),
+    };
+    Ok(Ray::new(origin, direction).with_range(0.0, max_distance))
 }
 
 /// Traces a batch of rays: the closest hit of each, or whether anything

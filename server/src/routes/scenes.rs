@@ -57,12 +57,7 @@ pub fn summary(entry: &SceneEntry) -> SceneSummary {
 #[utoipa::path(get, path = "/v1/scenes", tag = "scenes",
     responses((status = 200, body = SceneList)), security((), ("api_key" = [])))]
 pub async fn list(State(state): State<AppState>) -> Json<SceneList> {
-    let scenes = state
-        .registry()
-        .list()
-        .iter()
-        .map(|e| summary(e))
-        .collect();
+    let scenes = state.registry().list().iter().map(|e| summary(e)).collect();
     Json(SceneList { scenes })
 }
 
@@ -165,10 +160,7 @@ pub async fn create(
                 upload_digest: Some(upload_digest.clone()),
             };
             registry.create(reservation, meta, scene)?;
-            Ok((
-                StatusCode::CREATED,
-                summary(registry.get(&id)?.as_ref()),
-            ))
+            Ok((StatusCode::CREATED, summary(registry.get(&id)?.as_ref())))
         })
         .await??;
     state.refresh_scene_gauges();

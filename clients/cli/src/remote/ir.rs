@@ -18,7 +18,10 @@ pub fn run(client: &Client, scene_id: &str, args: &IrArgs) -> Result<(), Box<dyn
     let request = ImpulseResponseRequest::pair(sim.source, sim.listener, sim.options());
     let Some(out) = &args.out else {
         let answer = client.impulse_responses(scene_id, &request)?;
-        let response = answer.responses.first().ok_or("the server sent no response")?;
+        let response = answer
+            .responses
+            .first()
+            .ok_or("the server sent no response")?;
         return report::print(response, args.json, None);
     };
     let mut stream = client.stream(scene_id)?;

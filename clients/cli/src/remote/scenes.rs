@@ -6,10 +6,10 @@ use std::io::{Cursor, Read};
 use std::path::{Path, PathBuf};
 
 use clap::Subcommand;
-use frusta_engine::scene::load::extension;
-use frusta_engine::scene::Scene;
 use frusta_client::api::scenes::CreateQuery;
 use frusta_client::Client;
+use frusta_engine::scene::load::extension;
+use frusta_engine::scene::Scene;
 use serde_json::Value;
 
 use crate::progress;
