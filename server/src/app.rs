@@ -134,7 +134,7 @@ impl AppState {
     ),
     // A stream's messages travel after the upgrade, so no operation
     // names them; they are listed for clients.
-    components(schemas(crate::routes::stream::StreamUpdate)),
+    components(schemas(frusta_api::stream::StreamUpdate, frusta_api::stream::StreamFrame)),
     modifiers(&BearerAuth)
 )]
 struct ApiDoc;

@@ -8,7 +8,7 @@ use axum::extract::{FromRequest, Request};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
-use serde::Serialize;
+pub use frusta_api::Problem;
 
 /// Everything a request can fail with.
 #[derive(Debug, thiserror::Error)]
@@ -162,7 +162,7 @@ impl ApiError {
         });
         Problem {
             kind: format!("urn:frusta:problem:{kind}"),
-            title,
+            title: title.into(),
             status: self.status().as_u16(),
             detail: self.to_string(),
             ray_index: match self {
@@ -185,22 +185,6 @@ fn new_error_id() -> String {
     });
     let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     format!("{start:x}-{n}")
-}
-
-/// The RFC 9457 body; `ray_index` and `error_id` are extension members so
-/// clients can point at the offending ray without parsing `detail`, and
-/// report an internal error by the id the server logged it under.
-#[derive(Debug, Serialize, utoipa::ToSchema)]
-pub struct Problem {
-    #[serde(rename = "type")]
-    pub kind: String,
-    pub title: &'static str,
-    pub status: u16,
-    pub detail: String,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub ray_index: Option<usize>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub error_id: Option<String>,
 }
 
 impl IntoResponse for ApiError {

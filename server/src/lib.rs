@@ -15,10 +15,8 @@ mod error;
 mod metrics;
 mod registry;
 mod routes;
-mod schema;
 mod simulation;
 mod store;
-mod wire;
 
 use std::future::Future;
 use std::path::Path;

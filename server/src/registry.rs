@@ -6,6 +6,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
+use frusta_api::objects::{EditAction, EditReport};
 use frusta_engine::acoustics::AcousticScene;
 use frusta_engine::bvh::{UpdateReport, DEFAULT_REBUILD_THRESHOLD};
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
@@ -64,17 +65,6 @@ impl SceneEntry {
         self.revisions.send_replace(Some(live.revision));
         live.revision
     }
-}
-
-/// What an object edit did, for the response and the metrics.
-#[derive(Clone, Copy, Debug, serde::Serialize, utoipa::ToSchema)]
-pub struct EditReport {
-    pub revision: u64,
-    /// `transform` (only the top level changed), `refit` or `rebuild`.
-    pub action: &'static str,
-    /// Bounding-volume degradation after a refit (Lauterbach 4.1.5).
-    pub degradation: Option<f32>,
-    pub elapsed_ms: f64,
 }
 
 /// A new object state: either or both of a transform and vertex positions.
@@ -413,9 +403,9 @@ impl Registry {
             reports.push(EditReport {
                 revision,
                 action: match update.map(|u| u.action) {
-                    None => "transform",
-                    Some(frusta_engine::bvh::UpdateAction::Refit) => "refit",
-                    Some(frusta_engine::bvh::UpdateAction::Rebuild) => "rebuild",
+                    None => EditAction::Transform,
+                    Some(frusta_engine::bvh::UpdateAction::Refit) => EditAction::Refit,
+                    Some(frusta_engine::bvh::UpdateAction::Rebuild) => EditAction::Rebuild,
                 },
                 degradation: update.and_then(|u| u.degradation),
                 elapsed_ms: start.elapsed().as_secs_f64() * 1e3,

@@ -11,22 +11,13 @@ use frusta_engine::acoustics::{
     simulate_cached, simulate_until, BeamCache, Cancel, Response, SimulationOptions,
 };
 use glam::Vec3;
-use serde::Deserialize;
 use serde_json::{Map, Value};
+
+use frusta_api::impulse_responses::Point;
 
 use crate::config::Limits;
 use crate::error::ApiError;
 use crate::registry::SceneEntry;
-use crate::schema::Vector3;
-
-/// A source or listener.
-#[derive(Clone, Debug, Deserialize, utoipa::ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Point {
-    /// `[x, y, z]` in metres.
-    #[schema(value_type = Vector3)]
-    pub position: [f32; 3],
-}
 
 /// Sources, listeners and options; every option has a default.
 #[derive(Clone, Debug, PartialEq)]

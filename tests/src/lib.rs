@@ -1,10 +1,11 @@
 //! What the cross-crate tests in `tests/tests/` share: the real server on
-//! a free loopback port over its own data directory, and small HTTP and
-//! WebSocket helpers.
+//! a free loopback port over its own data directory, and `frusta-client`
+//! clients of it.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use frusta_client::{Answer, Client, Config};
 use serde_json::Value;
 
 /// A running server on a free loopback port; dropping it shuts it down.
@@ -55,73 +56,55 @@ impl Server {
         Self(frusta_server::BackgroundServer::start(config).expect("the server starts"))
     }
 
-    pub fn url(&self, path: &str) -> String {
-        format!("{}{path}", self.0.url())
+    /// A client of this server, as every Rust client talks to it.
+    pub fn client(&self) -> Client {
+        Client::new(&self.0.url(), Config::default()).expect("an http:// URL")
     }
 
-    pub fn ws_url(&self, path: &str) -> String {
-        format!("ws://{}{path}", self.0.addr)
+    /// `host:port`.
+    pub fn addr(&self) -> std::net::SocketAddr {
+        self.0.addr
     }
 
     /// Shuts down gracefully and waits until every task has ended.
     pub fn stop(self) {
         self.0.stop();
     }
+
+    pub fn get(&self, path: &str) -> (u16, String, Value) {
+        parts(self.client().get(path))
+    }
+
+    pub fn post(&self, path: &str, body: &str) -> (u16, String, Value) {
+        parts(
+            self.client()
+                .post(path, "application/json", body.as_bytes()),
+        )
+    }
+
+    pub fn patch(&self, path: &str, body: &str) -> (u16, String, Value) {
+        parts(
+            self.client()
+                .patch(path, "application/json", body.as_bytes()),
+        )
+    }
+
+    pub fn delete(&self, path: &str) -> (u16, String, Value) {
+        parts(self.client().delete(path))
+    }
 }
 
-/// An HTTP client that returns 4xx and 5xx answers instead of failing.
-pub fn client() -> ureq::Agent {
-    ureq::Agent::config_builder()
-        .http_status_as_error(false)
-        .build()
-        .into()
-}
-
-/// Status, content type and JSON body (`Null` when empty).
-pub fn answer(
-    response: Result<ureq::http::Response<ureq::Body>, ureq::Error>,
-) -> (u16, String, Value) {
-    let mut response = response.expect("HTTP exchange");
-    let status = response.status().as_u16();
-    let content_type = response
-        .headers()
-        .get("content-type")
-        .and_then(|v| v.to_str().ok())
-        .unwrap_or_default()
-        .to_owned();
-    let text = response.body_mut().read_to_string().expect("body");
+/// Status, content type and JSON body (`Null` when empty, a string when
+/// not JSON), for tests of what any client would see.
+fn parts(answer: Result<Answer, frusta_client::Error>) -> (u16, String, Value) {
+    let answer = answer.expect("HTTP exchange");
+    let text = String::from_utf8_lossy(&answer.body).into_owned();
     let json = if text.is_empty() {
         Value::Null
     } else {
         serde_json::from_str(&text).unwrap_or(Value::String(text))
     };
-    (status, content_type, json)
-}
-
-pub fn get(url: &str) -> (u16, String, Value) {
-    answer(client().get(url).call())
-}
-
-pub fn post(url: &str, body: &str) -> (u16, String, Value) {
-    answer(
-        client()
-            .post(url)
-            .header("content-type", "application/json")
-            .send(body),
-    )
-}
-
-pub fn patch(url: &str, body: &str) -> (u16, String, Value) {
-    answer(
-        client()
-            .patch(url)
-            .header("content-type", "application/json")
-            .send(body),
-    )
-}
-
-pub fn delete(url: &str) -> (u16, String, Value) {
-    answer(client().delete(url).call())
+    (answer.status, answer.content_type, json)
 }
 
 /// A 10 x 6 x 3 m box with a dynamic 1 x 1.5 m panel at x = 4.

@@ -1,18 +1,18 @@
 //! Impulse-response load: `clients` threads, each with its own blocking
-//! agent (one keep-alive connection), posting back to back until the time
+//! client (one keep-alive connection), posting back to back until the time
 //! is up. Threads rather than async tasks: 64 mostly-waiting threads cost
 //! little, and each request's latency is then its own wall time.
 
 use std::time::{Duration, Instant};
 
-use super::{positions, Measured, Options, Points};
+use frusta_client::api::impulse_responses::ImpulseResponseRequest;
+use frusta_client::{Answer, Client};
+
+use super::{Measured, Options, Points};
 use crate::rays::SplitMix64;
 
-/// Largest answer read; hall answers at order 2-3 are well below.
-pub(crate) const BODY_LIMIT: u64 = 64 << 20;
-
 #[derive(Default)]
-struct Client {
+struct Tally {
     latencies_ms: Vec<f64>,
     requests: usize,
     errors: usize,
@@ -20,16 +20,26 @@ struct Client {
 }
 
 pub fn run(
-    url: &str,
+    base: &str,
+    scene: &str,
     points: &Points,
     options: &Options,
     clients: usize,
     duration: Duration,
-) -> Measured {
+) -> Result<Measured, String> {
+    let path = format!("/v1/scenes/{scene}/impulse-responses");
+    let agents = (0..clients)
+        .map(|_| super::client(base))
+        .collect::<Result<Vec<_>, _>>()?;
     let start = Instant::now();
-    let results: Vec<Client> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..clients)
-            .map(|i| s.spawn(move || client(url, points, options, i as u64, start + duration)))
+    let results: Vec<Tally> = std::thread::scope(|s| {
+        let path = &path;
+        let handles: Vec<_> = agents
+            .into_iter()
+            .enumerate()
+            .map(|(i, agent)| {
+                s.spawn(move || requests(&agent, path, points, options, i as u64, start + duration))
+            })
             .collect();
         handles
             .into_iter()
@@ -41,52 +51,36 @@ pub fn run(
     if let Some(e) = results.iter().find_map(|c| c.first_error.as_ref()) {
         eprintln!("first error: {e}");
     }
-    Measured {
+    Ok(Measured {
         requests: results.iter().map(|c| c.requests).sum(),
         errors: results.iter().map(|c| c.errors).sum(),
         seconds,
         latencies_ms: results.into_iter().flat_map(|c| c.latencies_ms).collect(),
         beams_reused: None,
-    }
+    })
 }
 
-/// One keep-alive connection that returns every status as an answer.
-pub(crate) fn agent() -> ureq::Agent {
-    ureq::Agent::config_builder()
-        .http_status_as_error(false)
-        // A stuck server fails the request instead of hanging the bench.
-        .timeout_global(Some(Duration::from_secs(120)))
-        .build()
-        .into()
-}
-
-fn client(url: &str, points: &Points, options: &Options, seed: u64, end: Instant) -> Client {
-    let agent = agent();
+/// One client's requests, back to back until `end`. The answer is read
+/// to its last byte (which reuses the connection) but not parsed, so the
+/// latency is the server's and the wire's.
+fn requests(
+    client: &Client,
+    path: &str,
+    points: &Points,
+    options: &Options,
+    seed: u64,
+    end: Instant,
+) -> Tally {
     let mut rng = SplitMix64::new(0xB0DE_5EED ^ seed);
-    let mut out = Client::default();
+    let mut out = Tally::default();
     while Instant::now() < end {
         let listener = points.random_listener(&mut rng);
-        let mut request = serde_json::to_value(options).expect("options serialize");
-        request["sources"] = positions(&[points.source]);
-        request["listeners"] = positions(&[listener]);
-        let request = request.to_string();
+        let request = ImpulseResponseRequest::pair(points.source, listener, options.simulation());
         let t = Instant::now();
-        let outcome = agent
-            .post(url)
-            .header("content-type", "application/json")
-            .send(&request)
-            .and_then(|mut r| {
-                // Read to the end, so the connection is reused.
-                let body = r.body_mut().with_config().limit(BODY_LIMIT).read_to_vec()?;
-                Ok((r.status(), body))
-            });
+        let outcome = client.post_json(path, &request).and_then(Answer::ok);
         let ms = t.elapsed().as_secs_f64() * 1e3;
         out.requests += 1;
-        let error = match outcome {
-            Ok((status, _)) if status.is_success() => None,
-            Ok((status, body)) => Some(format!("{status}: {}", String::from_utf8_lossy(&body))),
-            Err(e) => Some(e.to_string()),
-        };
+        let error = outcome.err().map(|e| e.to_string());
         match error {
             None => out.latencies_ms.push(ms),
             Some(e) => {

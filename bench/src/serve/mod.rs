@@ -3,13 +3,15 @@
 //! client streams closed-loop updates, moving first the listener (the
 //! traced frusta can be reused) and then the source (every update traces).
 
-// `soak` reuses the agent, the proc reader and the stream helpers.
+// `soak` reuses the client, the proc reader and the options.
 pub(crate) mod load;
 pub(crate) mod server;
 pub(crate) mod stream;
 
 use std::time::Duration;
 
+use frusta_client::{Client, Config};
+use frusta_engine::acoustics::{CellAssignment, SimulationOptions};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
@@ -46,7 +48,7 @@ pub struct Args {
     #[arg(long, default_value_t = 8)]
     pub sampling: u32,
     /// Cell mode of the HTTP requests (`sampled` or `conservative`).
-    #[arg(long, default_value = "sampled")]
+    #[arg(long, default_value = "sampled", value_parser = ["sampled", "conservative"])]
     pub cells: String,
     /// Sample rate of every impulse response, in Hz.
     #[arg(long, default_value_t = 48_000)]
@@ -58,7 +60,7 @@ pub struct Args {
     #[arg(long, default_value_t = 8)]
     pub stream_sampling: u32,
     /// Cell modes to stream with, each a listener and a source phase.
-    #[arg(long, value_delimiter = ',', default_value = "sampled")]
+    #[arg(long, value_delimiter = ',', default_value = "sampled", value_parser = ["sampled", "conservative"])]
     pub stream_cells: Vec<String>,
     /// Print JSON lines (one object per phase) instead of the table.
     #[arg(long)]
@@ -69,13 +71,29 @@ pub struct Args {
     pub from_json: Option<std::path::PathBuf>,
 }
 
-/// Simulation options as both routes take them.
+/// The simulation options a phase asks for, as its row reports them.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Options {
     pub max_order: u32,
     pub sampling: u32,
     pub cells: String,
     pub sample_rate: u32,
+}
+
+impl Options {
+    /// As both routes take them; `cells` is `sampled` or `conservative`.
+    pub fn simulation(&self) -> SimulationOptions {
+        SimulationOptions {
+            max_order: self.max_order,
+            sampling: self.sampling,
+            cells: match self.cells.as_str() {
+                "conservative" => CellAssignment::Conservative,
+                _ => CellAssignment::Sampled,
+            },
+            sample_rate: self.sample_rate,
+            ..SimulationOptions::default()
+        }
+    }
 }
 
 /// Milliseconds at the nearest-rank percentiles, over successful requests.
@@ -168,13 +186,6 @@ impl Points {
     }
 }
 
-/// `[{"position": [x, y, z]}, ...]`, as both routes take points.
-pub(crate) fn positions(list: &[Vec3]) -> serde_json::Value {
-    list.iter()
-        .map(|p| serde_json::json!({ "position": p.to_array() }))
-        .collect()
-}
-
 fn from_json(path: &std::path::Path) -> Result<(), String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let rows = text
@@ -244,16 +255,17 @@ fn phases(args: &Args, base: &str, in_process: bool) -> Result<Vec<Row>, String>
             "[{}] {} clients x {ir_seconds} s of impulse responses...",
             args.scene, args.clients
         );
-        let url = format!("{base}/v1/scenes/{}/impulse-responses", args.scene);
-        let measured = load::run(&url, &points, &options, args.clients, secs(ir_seconds));
+        let measured = load::run(
+            base,
+            &args.scene,
+            &points,
+            &options,
+            args.clients,
+            secs(ir_seconds),
+        )?;
         push(row("ir_load", args, None, args.clients, options, measured));
     }
     if stream_seconds > 0.0 {
-        let ws = format!(
-            "{}/v1/scenes/{}/stream",
-            base.replacen("http", "ws", 1),
-            args.scene
-        );
         for cells in &args.stream_cells {
             let options = Options {
                 max_order: args.stream_order,
@@ -266,7 +278,14 @@ fn phases(args: &Args, base: &str, in_process: bool) -> Result<Vec<Row>, String>
                     "[{}] stream, {cells} cells, moving the {moving}...",
                     args.scene
                 );
-                let measured = stream::run(&ws, &points, &options, moving, secs(stream_seconds))?;
+                let measured = stream::run(
+                    base,
+                    &args.scene,
+                    &points,
+                    &options,
+                    moving,
+                    secs(stream_seconds),
+                )?;
                 push(row(
                     "stream",
                     args,
@@ -279,6 +298,16 @@ fn phases(args: &Args, base: &str, in_process: bool) -> Result<Vec<Row>, String>
         }
     }
     Ok(rows)
+}
+
+/// A client of `base` with one keep-alive connection; a stuck server
+/// fails the request (or the stream read) instead of hanging the bench.
+pub(crate) fn client(base: &str) -> Result<Client, String> {
+    let config = Config {
+        timeout: Some(Duration::from_secs(120)),
+        ..Config::default()
+    };
+    Client::new(base, config).map_err(|e| e.to_string())
 }
 
 fn secs(s: f64) -> Duration {

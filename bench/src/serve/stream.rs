@@ -4,17 +4,13 @@
 //! is timed. One point moves a few centimetres per update, as a head or
 //! a player would.
 
-use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
+use frusta_client::api::stream::StreamUpdate;
+use frusta_client::Error;
 use glam::Vec3;
-use serde_json::Value;
-use tungstenite::stream::MaybeTlsStream;
-use tungstenite::{Message, WebSocket};
 
-use super::{positions, Measured, Options, Points};
-
-pub(crate) type Socket = WebSocket<MaybeTlsStream<TcpStream>>;
+use super::{Measured, Options, Points};
 
 /// The moving point goes round a circle of this radius (m), this far
 /// (rad) per update: about 10 cm.
@@ -22,13 +18,16 @@ const RADIUS: f32 = 1.0;
 const STEP: f32 = 0.1;
 
 pub fn run(
-    url: &str,
+    base: &str,
+    scene: &str,
     points: &Points,
     options: &Options,
     moving: &str,
     duration: Duration,
 ) -> Result<Measured, String> {
-    let mut socket = connect(url).map_err(|e| format!("{url}: {e}"))?;
+    let mut stream = super::client(base)?
+        .stream(scene)
+        .map_err(|e| format!("{base} {scene}: {e}"))?;
     let (lo, hi) = points.listeners;
     let listener = (lo + hi) * 0.5;
     let start = Instant::now();
@@ -47,73 +46,36 @@ pub fn run(
             "source" => (points.source + 0.5 * offset, listener),
             _ => (points.source, listener + offset),
         };
-        let update = serde_json::json!({
-            "seq": seq,
-            "sources": positions(&[source]),
-            "listeners": positions(&[listener]),
-            "options": options,
-        });
+        let update = StreamUpdate {
+            seq: Some(seq),
+            sources: Some(vec![source.into()]),
+            listeners: Some(vec![listener.into()]),
+            options: Some(options.simulation()),
+            objects: None,
+        };
         let t = Instant::now();
-        socket
-            .send(Message::Text(update.to_string().into()))
-            .map_err(|e| e.to_string())?;
-        let answer = read_answer(&mut socket, seq)?;
+        stream.send(&update).map_err(|e| e.to_string())?;
         m.requests += 1;
-        match answer {
-            Ok(reused) => {
+        match stream.answer_to(seq) {
+            Ok((answer, _)) => {
                 m.latencies_ms.push(t.elapsed().as_secs_f64() * 1e3);
-                if reused {
+                if answer.pair.stats.beams_reused {
                     *m.beams_reused.as_mut().expect("set above") += 1;
                 }
             }
-            Err(e) => {
+            // An error frame is the server refusing this update; anything
+            // else (a closed or broken socket) ends the phase.
+            Err(Error::Frame(problem)) => {
                 if m.errors == 0 {
-                    eprintln!("first error: {e}");
+                    eprintln!("first error: {problem}");
                 }
                 m.errors += 1;
             }
+            Err(e) => return Err(e.to_string()),
         }
         seq += 1;
     }
     m.seconds = start.elapsed().as_secs_f64();
-    let _ = socket.close(None);
+    let _ = stream.close();
     Ok(m)
-}
-
-/// Opens a stream on `url` (`ws://`).
-pub(crate) fn connect(url: &str) -> Result<Socket, tungstenite::Error> {
-    let (socket, _) = tungstenite::connect(url)?;
-    if let MaybeTlsStream::Plain(tcp) = socket.get_ref() {
-        // Updates are small frames: send each at once. A stuck server
-        // fails the read instead of hanging the bench.
-        tcp.set_nodelay(true)?;
-        tcp.set_read_timeout(Some(Duration::from_secs(120)))?;
-    }
-    Ok(socket)
-}
-
-/// Waits for the answer to `seq`: `Ok(beams_reused)`, or the error frame
-/// as `Ok(Err(text))`. A closed or broken socket ends the phase.
-pub(crate) fn read_answer(socket: &mut Socket, seq: u64) -> Result<Result<bool, String>, String> {
-    loop {
-        let text = match socket.read().map_err(|e| e.to_string())? {
-            Message::Text(text) => text,
-            Message::Close(frame) => return Err(format!("stream closed: {frame:?}")),
-            _ => continue,
-        };
-        let meta: Value = serde_json::from_str(text.as_str()).map_err(|e| e.to_string())?;
-        // Anything else is a problem document (whose own `type`, a URN,
-        // may stand in the place of `"error"`).
-        if meta["type"] != "impulse_response" {
-            return Ok(Err(meta.to_string()));
-        }
-        // The samples follow their metadata.
-        match socket.read().map_err(|e| e.to_string())? {
-            Message::Binary(_) => {}
-            other => return Err(format!("expected the samples, got {other:?}")),
-        }
-        if meta["seq"].as_u64() == Some(seq) {
-            return Ok(Ok(meta["stats"]["beams_reused"] == true));
-        }
-    }
 }

@@ -8,13 +8,13 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use frusta_client::api::impulse_responses::ImpulseResponseRequest;
 use glam::Vec3;
 
 use super::scenes::{self, Own};
 use super::tally::{ms_since, Outcome, Progress, Tally};
 use crate::rays::SplitMix64;
-use crate::serve::load::BODY_LIMIT;
-use crate::serve::{positions, Options, Points};
+use crate::serve::{Options, Points};
 
 /// Scenes one client holds at once: 64 clients keep at most 192 small
 /// scenes (about 10k triangles) on the server.
@@ -29,8 +29,8 @@ enum Req<'b> {
 }
 
 pub struct Client<'a> {
-    agent: ureq::Agent,
-    pub(super) base: &'a str,
+    /// One keep-alive connection.
+    pub(super) agent: frusta_client::Client,
     index: usize,
     pub(super) rng: SplitMix64,
     uploads: usize,
@@ -45,15 +45,14 @@ pub struct Client<'a> {
 
 impl<'a> Client<'a> {
     pub fn new(
-        base: &'a str,
+        agent: frusta_client::Client,
         index: usize,
         end: Instant,
         stop: &'a AtomicBool,
         progress: &'a Progress,
     ) -> Self {
         Self {
-            agent: crate::serve::load::agent(),
-            base,
+            agent,
             index,
             rng: SplitMix64::new(0x50AC_0000 ^ index as u64),
             uploads: 0,
@@ -165,35 +164,15 @@ impl<'a> Client<'a> {
     /// Sends one request and counts its answer under `kind`; whether it
     /// succeeded. Backpressure waits as long as the server asked.
     fn request(&mut self, kind: &'static str, path: &str, req: Req<'_>) -> bool {
-        let url = format!("{}{path}", self.base);
         let t = Instant::now();
-        let (method, sent) = match req {
-            Req::Delete => ("DELETE", self.agent.delete(&url).call()),
-            Req::Post(media, body) => (
-                "POST",
-                self.agent
-                    .post(&url)
-                    .header("content-type", media)
-                    .send(body),
-            ),
-            Req::Patch(media, body) => (
-                "PATCH",
-                self.agent
-                    .patch(&url)
-                    .header("content-type", media)
-                    .send(body),
-            ),
+        let (method, answer) = match req {
+            Req::Delete => ("DELETE", self.agent.delete(path)),
+            Req::Post(media, body) => ("POST", self.agent.post(path, media, body)),
+            Req::Patch(media, body) => ("PATCH", self.agent.patch(path, media, body)),
         };
-        let answer = sent.and_then(|mut r| {
-            let after = r.headers().get("retry-after").and_then(|v| v.to_str().ok());
-            let after = after.map(str::to_string);
-            // Read to the end, so the connection is reused.
-            let body = r.body_mut().with_config().limit(BODY_LIMIT).read_to_vec()?;
-            Ok((r.status().as_u16(), after, body))
-        });
         let ms = ms_since(t);
         let outcome = match answer {
-            Ok((status, after, body)) => Outcome::of(status, after.as_deref(), &body),
+            Ok(a) => Outcome::of(a.status, a.retry_after.as_deref(), &a.body),
             Err(e) => Outcome::Unexpected(format!("transport: {e}")),
         };
         let what = || format!("{method} {path} {}", describe(req));
@@ -309,10 +288,8 @@ impl<'a> Client<'a> {
     fn impulse_response(&mut self) {
         let at = self.pick();
         let (id, source, listener) = (self.id(at), self.source(at), self.listener(at));
-        let mut body = serde_json::to_value(self.options()).expect("options serialize");
-        body["sources"] = positions(&[source]);
-        body["listeners"] = positions(&[listener]);
-        let body = body.to_string();
+        let request = ImpulseResponseRequest::pair(source, listener, self.options().simulation());
+        let body = serde_json::to_string(&request).expect("a request serializes");
         let path = format!("/v1/scenes/{id}/impulse-responses");
         let kind = if id == "shoebox" {
             "ir_shoebox"

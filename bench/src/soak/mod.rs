@@ -87,15 +87,20 @@ pub fn run(args: Args) -> Result<(), String> {
         AtomicBool::new(false),
         Progress::default(),
     );
+    let agents = (0..args.clients)
+        .map(|_| serve::client(&server.url))
+        .collect::<Result<Vec<_>, _>>()?;
     let start = Instant::now();
     let end = start + Duration::from_secs_f64(run_s);
     let every = if args.quick { 5 } else { 30 };
     let (tally, seconds, samples) = std::thread::scope(|s| {
         let sampler = s.spawn(|| sample(&pid, start, every, &done, &stop, &progress));
-        let clients: Vec<_> = (0..args.clients)
-            .map(|i| {
-                let (base, stop, progress) = (&server.url, &stop, &progress);
-                s.spawn(move || Client::new(base, i, end, stop, progress).run())
+        let clients: Vec<_> = agents
+            .into_iter()
+            .enumerate()
+            .map(|(i, agent)| {
+                let (stop, progress) = (&stop, &progress);
+                s.spawn(move || Client::new(agent, i, end, stop, progress).run())
             })
             .collect();
         let mut tally = Tally::default();
@@ -201,10 +206,6 @@ fn sample(
 
 /// Scenes the server holds (`GET /v1/scenes`); `None` if it did not answer.
 fn scene_count(base: &str) -> Option<usize> {
-    let mut r = serve::load::agent()
-        .get(&format!("{base}/v1/scenes"))
-        .call()
-        .ok()?;
-    let list: serde_json::Value = serde_json::from_reader(r.body_mut().as_reader()).ok()?;
-    list["scenes"].as_array().map(Vec::len)
+    let list = serve::client(base).ok()?.scenes().ok()?;
+    Some(list.scenes.len())
 }

@@ -5,12 +5,12 @@
 
 use std::time::{Duration, Instant};
 
-use tungstenite::Message;
+use frusta_client::api::objects::ObjectPatch;
+use frusta_client::api::stream::{ObjectMove, StreamUpdate};
+use frusta_client::{Error, Stream};
 
 use super::client::Client;
 use super::tally::{ms_since, Outcome};
-use crate::serve::positions;
-use crate::serve::stream::{connect, read_answer, Socket};
 
 /// How long the close handshake may take before it counts as an error.
 const CLOSE_LIMIT: Duration = Duration::from_secs(60);
@@ -20,24 +20,20 @@ impl Client<'_> {
         let at = self.pick();
         let id = self.id(at);
         let door = at.is_some_and(|i| self.own[i].json);
-        let ws = self.base.replacen("http", "ws", 1);
         let path = format!("/v1/scenes/{id}/stream");
         let what = || format!("GET {path} (upgrade)");
         let t = Instant::now();
-        let mut socket = match connect(&format!("{ws}{path}")) {
-            Ok(socket) => {
+        let mut stream = match self.agent.stream(&id) {
+            Ok(stream) => {
                 self.record("stream_open", what, ms_since(t), &Outcome::Ok);
-                socket
+                stream
             }
             // Refused: a 503 with `Retry-After` (`--max-streams`) is
             // backpressure; any other answer, 2xx included (no upgrade),
             // is not.
-            Err(tungstenite::Error::Http(r)) => {
-                let status = r.status().as_u16();
-                let after = r.headers().get("retry-after").and_then(|v| v.to_str().ok());
-                let body = r.body().as_deref().unwrap_or_default();
-                let outcome = match Outcome::of(status, after, body) {
-                    Outcome::Ok => Outcome::Unexpected(format!("{status} without an upgrade")),
+            Err(Error::Status(a)) => {
+                let outcome = match Outcome::of(a.status, a.retry_after.as_deref(), &a.body) {
+                    Outcome::Ok => Outcome::Unexpected(format!("{} without an upgrade", a.status)),
                     outcome => outcome,
                 };
                 self.record("stream_open", what, ms_since(t), &outcome);
@@ -53,52 +49,48 @@ impl Client<'_> {
             if Instant::now() >= self.end {
                 break;
             }
-            let mut update = serde_json::json!({
-                "seq": seq,
-                "sources": positions(&[self.source(at)]),
-                "listeners": positions(&[self.listener(at)]),
-            });
-            // Options once: later updates keep them.
-            if seq == 1 {
-                update["options"] = serde_json::to_value(self.options()).expect("options");
-            }
+            let mut update = StreamUpdate {
+                seq: Some(seq),
+                sources: Some(vec![self.source(at).into()]),
+                listeners: Some(vec![self.listener(at).into()]),
+                // Options once: later updates keep them.
+                options: (seq == 1).then(|| self.options().simulation()),
+                objects: None,
+            };
             if door && self.below(2) == 0 {
-                let y = 0.3 * self.signed();
-                update["objects"] =
-                    serde_json::json!([{ "object": "door", "translation": [0, y, 0] }]);
+                let patch = ObjectPatch {
+                    translation: Some([0.0, 0.3 * self.signed(), 0.0]),
+                    ..ObjectPatch::default()
+                };
+                let object = "door".into();
+                update.objects = Some(vec![ObjectMove { object, patch }]);
             }
-            let text = update.to_string();
             let t = Instant::now();
-            let answer = socket
-                .send(Message::Text(text.clone().into()))
-                .map_err(|e| e.to_string())
-                .and_then(|()| read_answer(&mut socket, seq));
+            let answer = stream.send(&update).and_then(|()| stream.answer_to(seq));
             let (outcome, broken) = match answer {
-                Ok(Ok(_reused)) => (Outcome::Ok, false),
-                Ok(Err(frame)) => (Outcome::Unexpected(format!("error frame: {frame}")), false),
+                Ok(_) => (Outcome::Ok, false),
+                Err(Error::Frame(problem)) => (
+                    Outcome::Unexpected(format!("error frame: {problem}")),
+                    false,
+                ),
                 Err(e) => (Outcome::Unexpected(format!("transport: {e}")), true),
             };
-            let what = || format!("stream {path} update {text}");
+            let what = || format!("stream {path} update {update:?}");
             self.record("stream_update", what, ms_since(t), &outcome);
             if broken {
                 return;
             }
         }
-        self.close(&path, socket);
+        self.close(&path, stream);
     }
 
-    /// Sends Close and reads what is still in flight until the server's
-    /// Close ends the connection (`ConnectionClosed`).
-    fn close(&mut self, path: &str, mut socket: Socket) {
+    /// Closes with the handshake (the client's read timeout bounds it).
+    fn close(&mut self, path: &str, stream: Stream) {
         let t = Instant::now();
-        let mut result = socket.close(None);
-        while result.is_ok() && t.elapsed() < CLOSE_LIMIT {
-            result = socket.read().map(drop);
-        }
-        let outcome = match result {
-            Err(tungstenite::Error::ConnectionClosed) => Outcome::Ok,
-            Err(e) => Outcome::Unexpected(format!("closing: {e}")),
+        let outcome = match stream.close() {
+            Ok(()) if t.elapsed() < CLOSE_LIMIT => Outcome::Ok,
             Ok(()) => Outcome::Unexpected(format!("no Close within {CLOSE_LIMIT:?}")),
+            Err(e) => Outcome::Unexpected(format!("closing: {e}")),
         };
         self.record(
             "stream_close",

@@ -71,5 +71,5 @@ pub fn run(args: &IrArgs) -> Result<(), Box<dyn Error>> {
     if let Some(path) = &args.out {
         write_wav(path, &response.impulse_response)?;
     }
-    report::print(&response, args.json, args.out.as_deref())
+    report::print(&(&response).into(), args.json, args.out.as_deref())
 }

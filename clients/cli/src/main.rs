@@ -104,7 +104,7 @@ enum SceneCommand {
 fn main() -> ExitCode {
     restore_default_sigpipe();
     let cli = Cli::parse();
-    let server = || remote::Server::new(cli.server.as_deref(), cli.api_key.as_deref());
+    let server = || remote::client(cli.server.as_deref(), cli.api_key.as_deref());
     let result = match &cli.command {
         Command::Scene {
             command: SceneCommand::Info { path, json },

@@ -6,26 +6,15 @@ use axum::extract::{Path, State};
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
+use frusta_api::impulse_responses::{ImpulseResponseRequest, ImpulseResponses};
+use frusta_api::schemas::Binary;
 use frusta_engine::acoustics::signal::write_wav_to;
 use frusta_engine::acoustics::Cancel;
-use serde::Serialize;
 use serde_json::Value;
-use utoipa::ToSchema;
 
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
-use crate::schema::{Binary, ImpulseResponseRequest};
 use crate::simulation::{self, CancelOnDrop, IrRequest};
-use crate::wire::PairResponse;
-
-#[derive(Serialize, ToSchema)]
-pub struct ImpulseResponses<'a> {
-    scene: &'a str,
-    /// The scene revision every response belongs to.
-    revision: u64,
-    /// One per source-listener pair, sources outer.
-    responses: Vec<PairResponse<'a>>,
-}
 
 /// Body: `{"sources": [{"position": [x, y, z]}], "listeners": [...]}` plus
 /// any simulation option (`max_order`, `sampling`, `cells`, `bands_hz`,
@@ -76,9 +65,9 @@ pub async fn create(
         return Ok(([(header::CONTENT_TYPE, "audio/wav")], bytes.into_inner()).into_response());
     }
     Ok(Json(ImpulseResponses {
-        scene: &id,
+        scene: id,
         revision,
-        responses: responses.iter().map(PairResponse::new).collect(),
+        responses: responses.iter().map(Into::into).collect(),
     })
     .into_response())
 }
@@ -87,7 +76,7 @@ pub async fn create(
 mod tests {
     use crate::routes::test_support::*;
     use axum::http::StatusCode;
-    use serde_json::json;
+    use serde_json::{json, Value};
 
     const URI: &str = "/v1/scenes/shoebox/impulse-responses";
 
@@ -253,5 +242,59 @@ mod tests {
         let (status, _, problem) = server.send(post_json(URI, body)).await;
         assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{problem}");
         assert_eq!(problem["type"], "urn:frusta:problem:compute-limit");
+    }
+
+    /// A shoebox answer with reflections and transmissions-free paths.
+    async fn answer(server: &TestServer) -> Value {
+        let body = json!({
+            "sources": [{"position": [2, 3, 1.5]}], "listeners": [{"position": [7, 3, 1.2]}],
+            "max_order": 2, "sample_rate": 8000
+        });
+        let uri = "/v1/scenes/shoebox/impulse-responses";
+        let (status, _, body) = server.send(post_json(uri, &body.to_string())).await;
+        assert_eq!(status, axum::http::StatusCode::OK, "{body}");
+        body
+    }
+
+    /// The property names of component `name` in the OpenAPI document.
+    fn properties(api: &Value, name: &str) -> Vec<String> {
+        let mut names: Vec<String> = api["components"]["schemas"][name]["properties"]
+            .as_object()
+            .unwrap_or_else(|| panic!("no schema {name}"))
+            .keys()
+            .cloned()
+            .collect();
+        names.sort();
+        names
+    }
+
+    fn keys(v: &Value) -> Vec<String> {
+        let mut names: Vec<String> = v.as_object().unwrap().keys().cloned().collect();
+        names.sort();
+        names
+    }
+
+    #[tokio::test]
+    async fn openapi_shows_the_answer_field_by_field() {
+        let server = TestServer::new();
+        let (_, _, api) = server.send(get("/openapi.json")).await;
+        let pair = &answer(&server).await["responses"][0];
+        assert_eq!(properties(&api, "PairResponse"), keys(pair));
+        assert_eq!(properties(&api, "PathOut"), keys(&pair["paths"][1]));
+        assert_eq!(
+            properties(&api, "SurfaceOut"),
+            keys(&pair["paths"][1]["surfaces"][0])
+        );
+        assert_eq!(
+            properties(&api, "BandParametersOut"),
+            keys(&pair["parameters"][0])
+        );
+        assert_eq!(properties(&api, "StatsOut"), keys(&pair["stats"]));
+        for field in ["sources", "listeners", "max_order", "bands_hz", "air"] {
+            assert!(
+                properties(&api, "ImpulseResponseRequest").contains(&field.to_owned()),
+                "{field}"
+            );
+        }
     }
 }

@@ -4,22 +4,13 @@
 
 use axum::extract::{Path, State};
 use axum::{Extension, Json};
+use frusta_api::materials::{MaterialsEdited, MaterialsPatch};
 use frusta_engine::scene::Scene;
-use serde::Serialize;
 use serde_json::Value;
-use utoipa::ToSchema;
 
 use crate::app::AppState;
 use crate::auth::Caller;
 use crate::error::{ApiError, JsonBody, Problem};
-use crate::schema::MaterialsPatch;
-
-#[derive(Serialize, ToSchema)]
-pub struct MaterialsEdited {
-    revision: u64,
-    /// Every material name in id order after the edit.
-    materials: Vec<String>,
-}
 
 /// Body: `{"materials": {"<name>": "<library material>" | {"absorption": ..., "scattering": ..., "transmission": ...}}}`,
 /// as in the scene document.

@@ -6,49 +6,31 @@ use axum::body::Body;
 use axum::extract::{Path, State};
 use axum::http::HeaderMap;
 use axum::{Extension, Json};
+use frusta_api::objects::{EditReport, ObjectPatch};
+use frusta_api::schemas::Binary;
 use glam::Vec3;
-use serde::Deserialize;
-use utoipa::ToSchema;
 
 use crate::app::AppState;
 use crate::auth::Caller;
 use crate::error::{ApiError, Problem};
-use crate::registry::{EditReport, ObjectEdit, SceneEntry};
+use crate::registry::{ObjectEdit, SceneEntry};
 use crate::routes::large_body;
-use crate::schema::{Binary, Quaternion, Vector3};
 
-/// Omitted parts stay as they are.
-#[derive(Clone, Debug, Default, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ObjectPatch {
-    /// Quaternion `[x, y, z, w]` (normalised by the server).
-    #[schema(value_type = Option<Quaternion>)]
-    pub rotation: Option<[f32; 4]>,
-    /// `[x, y, z]` in metres.
-    #[schema(value_type = Option<Vector3>)]
-    pub translation: Option<[f32; 3]>,
-    /// Every vertex's new position in the object's frame, in the mesh's
-    /// vertex order (the count cannot change).
-    #[schema(value_type = Option<Vec<Vector3>>, min_items = 1)]
-    pub vertices: Option<Vec<[f32; 3]>>,
-}
-
-impl ObjectPatch {
-    pub fn to_edit(&self) -> Result<ObjectEdit, ApiError> {
-        if self.rotation.is_none() && self.translation.is_none() && self.vertices.is_none() {
-            return Err(ApiError::Invalid(
-                "nothing to change: give rotation, translation or vertices".into(),
-            ));
-        }
-        Ok(ObjectEdit {
-            rotation: self.rotation,
-            translation: self.translation,
-            vertices: self
-                .vertices
-                .as_ref()
-                .map(|v| v.iter().copied().map(Vec3::from_array).collect()),
-        })
+/// The edit a patch asks for; a patch that changes nothing is refused.
+pub fn edit_of(patch: &ObjectPatch) -> Result<ObjectEdit, ApiError> {
+    if patch.rotation.is_none() && patch.translation.is_none() && patch.vertices.is_none() {
+        return Err(ApiError::Invalid(
+            "nothing to change: give rotation, translation or vertices".into(),
+        ));
     }
+    Ok(ObjectEdit {
+        rotation: patch.rotation,
+        translation: patch.translation,
+        vertices: patch
+            .vertices
+            .as_ref()
+            .map(|v| v.iter().copied().map(Vec3::from_array).collect()),
+    })
 }
 
 /// Vertex positions sent as little-endian `f32` triples.
@@ -129,7 +111,7 @@ pub async fn patch(
             // Parsed here, not on the async runtime: an edit can be 64 MiB.
             let edit = if media_type == "application/json" {
                 let Json(patch) = Json::<ObjectPatch>::from_bytes(&body.bytes)?;
-                patch.to_edit()?
+                edit_of(&patch)?
             } else {
                 binary_vertices(&body.bytes)?
             };
@@ -137,7 +119,7 @@ pub async fn patch(
             job_state.registry().edit_object(&entry, index, &edit)
         })
         .await??;
-    state.metrics().count_update(report.action);
+    state.metrics().count_update(report.action.as_str());
     Ok(Json(report))
 }
 

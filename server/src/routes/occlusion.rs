@@ -3,36 +3,13 @@
 
 use axum::extract::{Path, State};
 use axum::Json;
+use frusta_api::occlusion::{OcclusionRequest, OcclusionResponse};
 use frusta_engine::geometry::Ray;
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
 use crate::routes::rays::MAX_RAYS;
-use crate::schema::Vector3;
-
-#[derive(Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct OcclusionRequest {
-    pairs: Vec<PointPair>,
-}
-
-#[derive(Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct PointPair {
-    #[schema(value_type = Vector3)]
-    from: [f32; 3],
-    #[schema(value_type = Vector3)]
-    to: [f32; 3],
-}
-
-#[derive(Serialize, ToSchema)]
-pub struct OcclusionResponse {
-    /// Per pair: whether nothing lies strictly between the two points.
-    visible: Vec<bool>,
-}
 
 /// Ends within this fraction of the distance (plus a micrometre) are
 /// ignored, so points lying on surfaces do not occlude themselves.

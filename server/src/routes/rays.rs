@@ -3,15 +3,14 @@
 
 use axum::extract::{Path, State};
 use axum::Json;
+use frusta_api::rays::{HitOutput, Mode, RayInput, RaysRequest, RaysResponse};
 use frusta_engine::geometry::Ray;
 use frusta_engine::query::SceneHit;
 use frusta_engine::scene::Scene;
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
 
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
-use crate::schema::Vector3;
 
 /// Upper bound on rays per request, so one request cannot monopolise the
 /// compute pool or memory.
@@ -21,92 +20,37 @@ pub const MAX_RAYS: usize = 100_000;
 /// would reject batches well below the ray limit.
 pub const BODY_LIMIT: usize = 32 * 1024 * 1024;
 
-#[derive(Deserialize, utoipa::ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct RaysRequest {
-    rays: Vec<RayInput>,
-    #[serde(default)]
-    mode: Mode,
-}
-
-#[derive(Deserialize, utoipa::ToSchema)]
-#[serde(deny_unknown_fields)]
-struct RayInput {
-    #[schema(value_type = Vector3)]
-    origin: [f32; 3],
-    /// Need not be unit length; not zero.
-    #[schema(value_type = Vector3)]
-    direction: [f32; 3],
-    /// Along `direction` normalised, metres; omitted or null: unbounded.
-    #[schema(minimum = 0.0)]
-    max_distance: Option<f32>,
-}
-
-#[derive(Clone, Copy, Default, Deserialize, utoipa::ToSchema)]
-#[serde(rename_all = "lowercase")]
-enum Mode {
-    /// Nearest hit per ray, for reflections and distances.
-    #[default]
-    Closest,
-    /// Whether anything blocks the ray, for visibility; cheaper.
-    Any,
-}
-
-/// Serialises as `{"hits": [...]}` or `{"occluded": [...]}`.
-#[derive(Serialize, utoipa::ToSchema)]
-#[serde(rename_all = "lowercase")]
-pub enum RaysResponse {
-    Hits(Vec<Option<HitOutput>>),
-    Occluded(Vec<bool>),
-}
-
-#[derive(Serialize, utoipa::ToSchema)]
-pub struct HitOutput {
-    t: f32,
-    object: u32,
-    object_name: String,
-    triangle: u32,
-    #[schema(value_type = Vector3)]
-    point: [f32; 3],
-    #[schema(value_type = Vector3)]
-    normal: [f32; 3],
-    material: String,
-}
-
-impl HitOutput {
-    fn new(scene: &Scene, hit: &SceneHit) -> Self {
-        let name_of = |names: Option<&String>| names.cloned().unwrap_or_default();
-        Self {
-            t: hit.t,
-            object: hit.object,
-            object_name: name_of(scene.objects.get(hit.object as usize).map(|o| &o.name)),
-            triangle: hit.triangle,
-            point: hit.point.to_array(),
-            normal: hit.normal.to_array(),
-            material: name_of(scene.materials.get(hit.material as usize).map(|m| &m.name)),
-        }
+/// A hit with its object's and material's names.
+fn hit_output(scene: &Scene, hit: &SceneHit) -> HitOutput {
+    let name_of = |names: Option<&String>| names.cloned().unwrap_or_default();
+    HitOutput {
+        t: hit.t,
+        object: hit.object,
+        object_name: name_of(scene.objects.get(hit.object as usize).map(|o| &o.name)),
+        triangle: hit.triangle,
+        point: hit.point.to_array(),
+        normal: hit.normal.to_array(),
+        material: name_of(scene.materials.get(hit.material as usize).map(|m| &m.name)),
     }
 }
 
-impl RayInput {
-    /// The engine silently misses invalid rays; a client sending one has a
-    /// bug, so it is told which ray and why instead.
-    fn to_ray(&self, index: usize) -> Result<Ray, ApiError> {
-        let invalid = |reason| ApiError::InvalidRay { index, reason };
-        let origin = Vec3::from_array(self.origin);
-        if !origin.is_finite() {
-            return Err(invalid("origin must be finite"));
-        }
-        let direction = Vec3::from_array(self.direction)
-            .try_normalize()
-            .ok_or_else(|| invalid("direction must be finite and non-zero"))?;
-        let max_distance = match self.max_distance {
-            None => f32::INFINITY,
-            Some(d) if d > 0.0 && d.is_finite() => d,
-            Some(_) => return Err(invalid("max_distance must be finite and positive")),
-        };
-        Ok(Ray::new(origin, direction).with_range(0.0, max_distance))
+/// The engine silently misses invalid rays; a client sending one has a
+/// bug, so it is told which ray and why instead.
+fn ray_of(input: &RayInput, index: usize) -> Result<Ray, ApiError> {
+    let invalid = |reason| ApiError::InvalidRay { index, reason };
+    let origin = Vec3::from_array(input.origin);
+    if !origin.is_finite() {
+        return Err(invalid("origin must be finite"));
     }
+    let direction = Vec3::from_array(input.direction)
+        .try_normalize()
+        .ok_or_else(|| invalid("direction must be finite and non-zero"))?;
+    let max_distance = match input.max_distance {
+        None => f32::INFINITY,
+        Some(d) if d > 0.0 && d.is_finite() => d,
+        Some(_) => return Err(invalid("max_distance must be finite and positive")),
+    };
+    Ok(Ray::new(origin, direction).with_range(0.0, max_distance))
 }
 
 /// Traces a batch of rays: the closest hit of each, or whether anything
@@ -133,7 +77,7 @@ pub async fn trace(
         .rays
         .iter()
         .enumerate()
-        .map(|(i, r)| r.to_ray(i))
+        .map(|(i, r)| ray_of(r, i))
         .collect::<Result<Vec<_>, _>>()?;
     let response = state
         .queries()
@@ -144,7 +88,7 @@ pub async fn trace(
                 Mode::Closest => RaysResponse::Hits(
                     bvh.closest_hits(&rays)
                         .iter()
-                        .map(|h| h.as_ref().map(|h| HitOutput::new(&live.scene, h)))
+                        .map(|h| h.as_ref().map(|h| hit_output(&live.scene, h)))
                         .collect(),
                 ),
                 Mode::Any => RaysResponse::Occluded(bvh.any_hits(&rays)),

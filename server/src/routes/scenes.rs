@@ -5,107 +5,59 @@ use axum::body::Body;
 use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::{Extension, Json};
-use frusta_engine::query::SceneBvhStats;
+use frusta_api::scenes::{
+    CreateQuery, ObjectSummary, SceneDetail, SceneList, SceneSummary, SceneUpload,
+};
+use frusta_api::schemas::Binary;
 use frusta_engine::scene::load::{parse_gltf, parse_obj};
 use frusta_engine::scene::{builtin_material, MeshSpec, Scene, SceneDocument};
-use serde::{Deserialize, Serialize};
-use utoipa::{IntoParams, ToSchema};
 
 use crate::app::AppState;
 use crate::auth::Caller;
 use crate::error::{ApiError, Problem};
 use crate::registry::{now_unix_ms, SceneEntry};
 use crate::routes::large_body;
-use crate::schema::{Binary, Quaternion, SceneUpload, Vector3};
 use crate::store::SceneMeta;
 
-#[derive(Serialize, ToSchema)]
-pub struct ObjectSummary {
-    index: usize,
-    name: String,
-    triangles: usize,
-    vertices: usize,
-    dynamic: bool,
-    /// Quaternion `[x, y, z, w]`.
-    #[schema(value_type = Quaternion)]
-    rotation: [f32; 4],
-    #[schema(value_type = Vector3)]
-    translation: [f32; 3],
-}
-
-#[derive(Serialize, ToSchema)]
-pub struct SceneSummary {
-    id: String,
-    revision: u64,
-    bundled: bool,
-    created_unix_ms: u64,
-    triangles: usize,
-    objects: Vec<ObjectSummary>,
-    /// Material names in id order, so a hit's material maps here.
-    materials: Vec<String>,
-    /// Time to build the acoustic hierarchy when the scene was loaded.
-    build_ms: f64,
-}
-
-impl SceneSummary {
-    pub fn new(entry: &SceneEntry) -> Self {
-        let live = entry.read();
-        Self {
-            id: entry.id.clone(),
-            revision: live.revision,
-            bundled: entry.meta.bundled,
-            created_unix_ms: entry.meta.created_unix_ms,
-            triangles: live.scene.triangle_count(),
-            objects: live
-                .scene
-                .objects
-                .iter()
-                .enumerate()
-                .map(|(index, o)| ObjectSummary {
-                    index,
-                    name: o.name.clone(),
-                    triangles: o.mesh.triangle_count(),
-                    vertices: o.mesh.positions().len(),
-                    dynamic: o.dynamic,
-                    rotation: o.transform.rotation.to_array(),
-                    translation: o.transform.translation.to_array(),
-                })
-                .collect(),
-            materials: live
-                .scene
-                .materials
-                .iter()
-                .map(|m| m.name.clone())
-                .collect(),
-            build_ms: live.build_ms,
-        }
+/// A scene as the list and uploads show it.
+pub fn summary(entry: &SceneEntry) -> SceneSummary {
+    let live = entry.read();
+    SceneSummary {
+        id: entry.id.clone(),
+        revision: live.revision,
+        bundled: entry.meta.bundled,
+        created_unix_ms: entry.meta.created_unix_ms,
+        triangles: live.scene.triangle_count(),
+        objects: live
+            .scene
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(index, o)| ObjectSummary {
+                index,
+                name: o.name.clone(),
+                triangles: o.mesh.triangle_count(),
+                vertices: o.mesh.positions().len(),
+                dynamic: o.dynamic,
+                rotation: o.transform.rotation.to_array(),
+                translation: o.transform.translation.to_array(),
+            })
+            .collect(),
+        materials: live
+            .scene
+            .materials
+            .iter()
+            .map(|m| m.name.clone())
+            .collect(),
+        build_ms: live.build_ms,
     }
-}
-
-#[derive(Serialize, ToSchema)]
-pub struct SceneList {
-    scenes: Vec<SceneSummary>,
-}
-
-#[derive(Serialize, ToSchema)]
-pub struct SceneDetail {
-    #[serde(flatten)]
-    summary: SceneSummary,
-    /// Per-object hierarchy statistics.
-    #[schema(value_type = Object)]
-    bvh: SceneBvhStats,
 }
 
 /// Lists every scene.
 #[utoipa::path(get, path = "/v1/scenes", tag = "scenes",
     responses((status = 200, body = SceneList)), security((), ("api_key" = [])))]
 pub async fn list(State(state): State<AppState>) -> Json<SceneList> {
-    let scenes = state
-        .registry()
-        .list()
-        .iter()
-        .map(|e| SceneSummary::new(e))
-        .collect();
+    let scenes = state.registry().list().iter().map(|e| summary(e)).collect();
     Json(SceneList { scenes })
 }
 
@@ -119,24 +71,11 @@ pub async fn detail(
     Path(id): Path<String>,
 ) -> Result<Json<SceneDetail>, ApiError> {
     let entry = state.registry().get(&id)?;
-    let bvh = entry.read().acoustic.bvh().stats();
+    let bvh = (&entry.read().acoustic.bvh().stats()).into();
     Ok(Json(SceneDetail {
-        summary: SceneSummary::new(&entry),
+        summary: summary(&entry),
         bvh,
     }))
-}
-
-#[derive(Deserialize, IntoParams)]
-#[into_params(parameter_in = Query)]
-pub struct CreateQuery {
-    /// The new scene's id (letters, digits, `-`, `_`; at most 64). Without
-    /// it the id is made from the scene's name.
-    id: Option<String>,
-    /// Object name for OBJ and glTF uploads (default `mesh`).
-    object: Option<String>,
-    /// Material of every triangle of an OBJ or glTF upload whose file
-    /// material is not a library material (default `concrete`).
-    material: Option<String>,
 }
 
 /// Uploads a scene: a JSON scene document (`scenes/README.md`; inline and
@@ -182,7 +121,7 @@ pub async fn create(
                 })
             };
             if let Some(entry) = query.id.as_deref().and_then(replay) {
-                return Ok((StatusCode::OK, SceneSummary::new(&entry)));
+                return Ok((StatusCode::OK, summary(&entry)));
             }
             let limits = job_state.limits();
             let scene = parse(&content_type, bytes, &query, limits.max_triangles)?;
@@ -207,7 +146,7 @@ pub async fn create(
                 // The same upload, sent twice, stored while this one parsed.
                 Err(ApiError::SceneExists(id)) => {
                     return match replay(&id) {
-                        Some(entry) => Ok((StatusCode::OK, SceneSummary::new(&entry))),
+                        Some(entry) => Ok((StatusCode::OK, summary(&entry))),
                         None => Err(ApiError::SceneExists(id)),
                     }
                 }
@@ -221,10 +160,7 @@ pub async fn create(
                 upload_digest: Some(upload_digest.clone()),
             };
             registry.create(reservation, meta, scene)?;
-            Ok((
-                StatusCode::CREATED,
-                SceneSummary::new(registry.get(&id)?.as_ref()),
-            ))
+            Ok((StatusCode::CREATED, summary(registry.get(&id)?.as_ref())))
         })
         .await??;
     state.refresh_scene_gauges();
@@ -338,7 +274,7 @@ fn check_id(id: &str) -> Result<(), ApiError> {
 /// The document's `name`, if the upload is a JSON document that has one
 /// (read without building the rest: serde skips the other fields).
 fn scene_name(bytes: &[u8], content_type: &str) -> String {
-    #[derive(Deserialize)]
+    #[derive(serde::Deserialize)]
     struct Named {
         name: Option<String>,
     }

@@ -27,63 +27,17 @@ use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Path, State};
 use axum::response::Response;
 use axum::Extension;
+use frusta_api::objects::EditReport;
+use frusta_api::stream::{ObjectsUpdated, StreamAnswer, StreamFrame, StreamUpdate};
 use frusta_engine::acoustics::{self, BeamCache, Cancel};
-use serde::{Deserialize, Serialize};
-use serde_json::Value;
 use tokio::sync::{mpsc, OwnedSemaphorePermit};
-use utoipa::ToSchema;
 
 use crate::app::AppState;
 use crate::auth::Caller;
 use crate::error::{ApiError, Problem};
-use crate::registry::{EditReport, ObjectEdit, SceneEntry};
-use crate::routes::objects::{object_index, ObjectPatch};
-use crate::simulation::{self, IrRequest, Point};
-use crate::wire::PairResponse;
-
-/// One message from the client; omitted fields keep their last value.
-#[derive(Debug, Default, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct StreamUpdate {
-    /// Echoed in the answers that include this update, for latency.
-    seq: Option<u64>,
-    sources: Option<Vec<Point>>,
-    listeners: Option<Vec<Point>>,
-    /// Simulation options, as in the impulse-response route.
-    #[schema(value_type = Option<Object>)]
-    options: Option<Value>,
-    objects: Option<Vec<ObjectMove>>,
-}
-
-#[derive(Debug, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ObjectMove {
-    /// Name or index.
-    object: String,
-    #[serde(flatten)]
-    patch: ObjectPatch,
-}
-
-#[derive(Serialize)]
-struct Answer<'a> {
-    #[serde(rename = "type")]
-    kind: &'static str,
-    seq: Option<u64>,
-    revision: u64,
-    compute_ms: f64,
-    /// What each object move of this update did to the hierarchy.
-    objects: &'a [EditReport],
-    #[serde(flatten)]
-    pair: PairResponse<'a>,
-}
-
-#[derive(Serialize)]
-struct ErrorFrame<'a> {
-    #[serde(rename = "type")]
-    kind: &'static str,
-    /// Nested, not flattened: the problem has a `type` of its own.
-    problem: &'a Problem,
-}
+use crate::registry::{ObjectEdit, SceneEntry};
+use crate::routes::objects::{edit_of, object_index};
+use crate::simulation::{self, IrRequest};
 
 /// Opens a stream; see the module documentation for the protocol.
 #[utoipa::path(get, path = "/v1/scenes/{id}/stream", tag = "acoustics",
@@ -260,9 +214,7 @@ impl Stream {
             (None, b) => b.map(|b| b.listeners.clone()),
         };
         let options = match (update.options, base) {
-            (Some(o), _) => {
-                serde_json::from_value(o).map_err(|e| ApiError::Invalid(format!("options: {e}")))?
-            }
+            (Some(o), _) => o,
             (None, Some(b)) => b.options.clone(),
             (None, None) => Default::default(),
         };
@@ -270,7 +222,7 @@ impl Stream {
         for m in update.objects.unwrap_or_default() {
             self.caller.may_change(&self.entry.meta)?;
             let index = object_index(&self.entry, &m.object)?;
-            let edit = m.patch.to_edit()?;
+            let edit = edit_of(&m.patch)?;
             edit.check(self.entry.object_vertices[index])?;
             edits.push((index, edit));
         }
@@ -331,7 +283,7 @@ impl Stream {
                             .edit_objects(&entry, &pending.objects)?
                     };
                     for report in &objects {
-                        job_state.metrics().count_update(report.action);
+                        job_state.metrics().count_update(report.action.as_str());
                     }
                     let (revision, responses) = match &request {
                         Some(r) => {
@@ -365,26 +317,23 @@ impl Stream {
     ) -> Result<(), axum::Error> {
         self.answered = Some(computed.revision);
         if computed.responses.is_empty() {
-            let moved = serde_json::json!({
-                "type": "objects_updated",
-                "seq": computed.seq,
-                "revision": computed.revision,
-                "objects": computed.objects,
+            let moved = StreamFrame::ObjectsUpdated(ObjectsUpdated {
+                seq: computed.seq,
+                revision: computed.revision,
+                objects: computed.objects,
             });
-            return socket.send(Message::Text(moved.to_string().into())).await;
+            return socket.send(text(&moved)).await;
         }
         let metrics = self.state.metrics();
         for response in &computed.responses {
-            let answer = Answer {
-                kind: "impulse_response",
+            let answer = StreamFrame::ImpulseResponse(StreamAnswer {
                 seq: computed.seq,
                 revision: computed.revision,
                 compute_ms: computed.compute_ms,
-                objects: &computed.objects,
-                pair: PairResponse::new(response),
-            };
-            let text = serde_json::to_string(&answer).unwrap_or_default();
-            socket.send(Message::Text(text.into())).await?;
+                objects: computed.objects.clone(),
+                pair: response.into(),
+            });
+            socket.send(text(&answer)).await?;
             let samples = simulation::samples_le(response);
             socket.send(Message::Binary(samples.into())).await?;
             metrics.stream_updates.inc();
@@ -400,12 +349,13 @@ impl Stream {
 
 async fn send_error(socket: &mut WebSocket, e: &ApiError) -> Result<(), axum::Error> {
     let problem = e.problem();
-    let frame = ErrorFrame {
-        kind: "error",
-        problem: &problem,
-    };
-    let text = serde_json::to_string(&frame).unwrap_or_default();
-    socket.send(Message::Text(text.into())).await
+    socket.send(text(&StreamFrame::Error { problem })).await
+}
+
+/// A frame as a text message. Serialising strings, numbers and arrays
+/// cannot fail.
+fn text(frame: &StreamFrame) -> Message {
+    Message::Text(serde_json::to_string(frame).unwrap_or_default().into())
 }
 
 fn close(code: u16, reason: &'static str) -> Message {

@@ -1,31 +1,39 @@
 //! `frusta ir --scene-id ID`: the impulse response computed by the server,
-//! printed as the offline command prints it.
+//! printed as the offline command prints it. With `--out` it is asked on
+//! a stream, whose answer carries the samples with the paths: one
+//! simulation, where the HTTP route would need a JSON and a WAV request.
 
 use std::error::Error;
 
-use serde_json::Value;
+use frusta_client::api::impulse_responses::ImpulseResponseRequest;
+use frusta_client::api::stream::StreamUpdate;
+use frusta_client::Client;
+use frusta_engine::acoustics::signal::write_wav;
 
-use super::{points, segment, Server};
 use crate::ir::IrArgs;
 use crate::report;
 
-pub fn run(server: &Server, scene_id: &str, args: &IrArgs) -> Result<(), Box<dyn Error>> {
+pub fn run(client: &Client, scene_id: &str, args: &IrArgs) -> Result<(), Box<dyn Error>> {
     let sim = &args.simulation;
-    let mut body = serde_json::to_value(sim.options())?;
-    body["sources"] = points(sim.source);
-    body["listeners"] = points(sim.listener);
-    let path = format!("/v1/scenes/{}/impulse-responses", segment(scene_id));
-    let answer: Value =
-        serde_json::from_slice(&server.post_json(&path, &body, "application/json")?)?;
-    let response = answer["responses"]
-        .get(0)
-        .ok_or("the server sent no response")?;
-    // The route sends samples only as WAV, in an answer of their own; the
-    // simulation is deterministic, so they belong to the paths above unless
-    // the scene was edited in between.
-    if let Some(out) = &args.out {
-        std::fs::write(out, server.post_json(&path, &body, "audio/wav")?)
-            .map_err(|e| format!("{}: {e}", out.display()))?;
-    }
-    report::print(response, args.json, args.out.as_deref())
+    let request = ImpulseResponseRequest::pair(sim.source, sim.listener, sim.options());
+    let Some(out) = &args.out else {
+        let answer = client.impulse_responses(scene_id, &request)?;
+        let response = answer
+            .responses
+            .first()
+            .ok_or("the server sent no response")?;
+        return report::print(response, args.json, None);
+    };
+    let mut stream = client.stream(scene_id)?;
+    stream.send(&StreamUpdate {
+        seq: Some(0),
+        sources: Some(request.sources),
+        listeners: Some(request.listeners),
+        options: Some(request.options),
+        objects: None,
+    })?;
+    let (answer, samples) = stream.answer_to(0)?;
+    stream.close()?;
+    write_wav(out, &samples)?;
+    report::print(&answer.pair, args.json, Some(out))
 }

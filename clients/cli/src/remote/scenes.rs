@@ -6,14 +6,12 @@ use std::io::{Cursor, Read};
 use std::path::{Path, PathBuf};
 
 use clap::Subcommand;
+use frusta_client::api::scenes::CreateQuery;
+use frusta_client::Client;
 use frusta_engine::scene::load::extension;
 use frusta_engine::scene::Scene;
-use serde::de::IgnoredAny;
-use serde::Deserialize;
 use serde_json::Value;
-use ureq::SendBody;
 
-use super::{segment, Server};
 use crate::progress;
 
 #[derive(Subcommand)]
@@ -43,40 +41,24 @@ pub enum ScenesCommand {
     },
 }
 
-pub fn run(server: &Server, command: &ScenesCommand) -> Result<(), Box<dyn Error>> {
+pub fn run(client: &Client, command: &ScenesCommand) -> Result<(), Box<dyn Error>> {
     match command {
-        ScenesCommand::List { json } => list(server, *json),
-        ScenesCommand::Upload { path, id } => upload(server, path, id.as_deref()),
+        ScenesCommand::List { json } => list(client, *json),
+        ScenesCommand::Upload { path, id } => upload(client, path, id.as_deref()),
         ScenesCommand::Delete { id } => {
-            let path = format!("/v1/scenes/{}", segment(id));
-            server.answer(server.delete(&path).call())?;
+            client.delete_scene(id)?;
             println!("deleted {id}");
             Ok(())
         }
     }
 }
 
-#[derive(Deserialize)]
-struct SceneList {
-    scenes: Vec<SceneSummary>,
-}
-
-#[derive(Deserialize)]
-struct SceneSummary {
-    id: String,
-    triangles: usize,
-    objects: Vec<IgnoredAny>,
-    revision: u64,
-}
-
-fn list(server: &Server, as_json: bool) -> Result<(), Box<dyn Error>> {
-    let bytes = server.answer(server.get("/v1/scenes").call())?;
+fn list(client: &Client, as_json: bool) -> Result<(), Box<dyn Error>> {
+    let list = client.scenes()?;
     if as_json {
-        let doc: Value = serde_json::from_slice(&bytes)?;
-        println!("{}", serde_json::to_string_pretty(&doc)?);
+        println!("{}", serde_json::to_string_pretty(&list)?);
         return Ok(());
     }
-    let list: SceneList = serde_json::from_slice(&bytes)?;
     let width = list
         .scenes
         .iter()
@@ -144,31 +126,22 @@ impl Upload {
     }
 }
 
-#[derive(Deserialize)]
-struct Created {
-    id: String,
-}
-
-fn upload(server: &Server, path: &Path, id: Option<&str>) -> Result<(), Box<dyn Error>> {
+fn upload(client: &Client, path: &Path, id: Option<&str>) -> Result<(), Box<dyn Error>> {
     let upload = Upload::new(path)?;
-    // A reader has no length of its own; giving it sends the body
-    // length-delimited rather than chunked, which every proxy accepts.
-    let mut request = server
-        .post("/v1/scenes")
-        .header("content-type", upload.content_type)
-        .header("content-length", upload.len);
-    if let Some(id) = id {
-        request = request.query("id", id);
-    }
-    if let Some(object) = &upload.object {
-        request = request.query("object", object);
-    }
+    let query = CreateQuery {
+        id: id.map(str::to_owned),
+        object: upload.object,
+        material: None,
+    };
     let bar = progress::bytes(upload.len, progress::shown(false));
     bar.set_message(format!("uploading {}", path.display()));
-    let mut body = bar.wrap_read(upload.body);
-    let sent = request.send(SendBody::from_reader(&mut body));
+    let created = client.upload(
+        &query,
+        upload.content_type,
+        upload.len,
+        bar.wrap_read(upload.body),
+    );
     bar.finish_and_clear();
-    let created: Created = serde_json::from_slice(&server.answer(sent)?)?;
-    println!("{}", created.id);
+    println!("{}", created?.id);
     Ok(())
 }

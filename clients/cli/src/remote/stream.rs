@@ -5,19 +5,14 @@
 //! reused.
 
 use std::error::Error;
-use std::net::TcpStream;
 use std::time::Instant;
 
 use clap::Args;
+use frusta_client::api::stream::StreamUpdate;
+use frusta_client::Client;
 use glam::Vec3;
-use serde::Deserialize;
 use serde_json::json;
-use tungstenite::client::IntoClientRequest;
-use tungstenite::stream::MaybeTlsStream;
-use tungstenite::{Message, WebSocket};
 
-use super::problem::{self, Problem};
-use super::{points, segment, Server};
 use crate::progress;
 use crate::simulation_args::SimulationArgs;
 use crate::vec3;
@@ -41,40 +36,10 @@ pub struct StreamArgs {
     json: bool,
 }
 
-type Socket = WebSocket<MaybeTlsStream<TcpStream>>;
-
-/// A text frame from the server.
-#[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
-enum Frame {
-    ImpulseResponse(Answer),
-    /// Another client's object move answered without samples.
-    ObjectsUpdated {},
-    Error {
-        problem: Problem,
-    },
-}
-
-#[derive(Deserialize)]
-struct Answer {
-    seq: Option<u64>,
-    revision: u64,
-    compute_ms: f64,
-    frames: usize,
-    channels: usize,
-    stats: AnswerStats,
-}
-
-#[derive(Deserialize)]
-struct AnswerStats {
-    paths: usize,
-    beams_reused: bool,
-}
-
-pub fn run(server: &Server, args: &StreamArgs) -> Result<(), Box<dyn Error>> {
-    let mut socket = connect(server, &args.scene_id)?;
+pub fn run(client: &Client, args: &StreamArgs) -> Result<(), Box<dyn Error>> {
+    let mut stream = client.stream(&args.scene_id)?;
     let sim = &args.simulation;
-    let options = serde_json::to_value(sim.options())?;
+    let options = sim.options();
     let to = args.to.unwrap_or(sim.listener);
     let n = args.updates;
     let bar = progress::steps(n.into(), progress::shown(args.json));
@@ -90,18 +55,19 @@ pub fn run(server: &Server, args: &StreamArgs) -> Result<(), Box<dyn Error>> {
         } else {
             0.0
         };
-        let update = json!({
-            "seq": seq,
-            "sources": points(sim.source),
-            "listeners": points(sim.listener.lerp(to, t)),
-            "options": options,
-        });
+        let update = StreamUpdate {
+            seq: Some(seq.into()),
+            sources: Some(vec![sim.source.into()]),
+            listeners: Some(vec![sim.listener.lerp(to, t).into()]),
+            options: Some(options.clone()),
+            objects: None,
+        };
         let sent = Instant::now();
-        socket.send(Message::text(update.to_string()))?;
-        let answer = answer_to(&mut socket, seq.into())?;
+        stream.send(&update)?;
+        let (answer, _samples) = stream.answer_to(seq.into())?;
         let latency_ms = sent.elapsed().as_secs_f64() * 1e3;
         latencies.push(latency_ms);
-        let s = &answer.stats;
+        let s = &answer.pair.stats;
         bar.suspend(|| {
             if args.json {
                 let line = json!({
@@ -123,8 +89,7 @@ pub fn run(server: &Server, args: &StreamArgs) -> Result<(), Box<dyn Error>> {
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     // Complete the closing handshake; the server answers a close at once.
-    socket.close(None)?;
-    while socket.read().is_ok() {}
+    stream.close()?;
 
     latencies.sort_by(f64::total_cmp);
     let (p50, p99) = (percentile(&latencies, 0.5), percentile(&latencies, 0.99));
@@ -141,58 +106,6 @@ pub fn run(server: &Server, args: &StreamArgs) -> Result<(), Box<dyn Error>> {
         );
     }
     Ok(())
-}
-
-/// Opens the scene's stream; a refused upgrade is reported by its problem
-/// document, as an HTTP error is.
-fn connect(server: &Server, scene_id: &str) -> Result<Socket, Box<dyn Error>> {
-    let url = server.ws_url(&format!("/v1/scenes/{}/stream", segment(scene_id)));
-    let mut request = url.as_str().into_client_request()?;
-    if let Some(bearer) = server.bearer() {
-        request
-            .headers_mut()
-            .insert("authorization", bearer.parse()?);
-    }
-    match tungstenite::connect(request) {
-        Ok((socket, _)) => Ok(socket),
-        Err(tungstenite::Error::Http(response)) => Err(problem::from_answer(
-            response.status().as_u16(),
-            response.body().as_deref().unwrap_or_default(),
-        )),
-        Err(e) => Err(format!("cannot open {url}: {e}").into()),
-    }
-}
-
-/// Reads frames until the answer to update `seq`. Answers to older updates
-/// (or to another client's edit of the scene) are skipped with their
-/// samples; an error frame ends the run.
-fn answer_to(socket: &mut Socket, seq: u64) -> Result<Answer, Box<dyn Error>> {
-    loop {
-        let text = match socket.read()? {
-            Message::Text(text) => text,
-            Message::Close(frame) => {
-                let reason = frame.map(|f| f.reason.to_string()).unwrap_or_default();
-                return Err(format!("the server closed the stream: {reason}").into());
-            }
-            _ => continue,
-        };
-        let answer = match serde_json::from_str(&text)? {
-            Frame::ImpulseResponse(answer) => answer,
-            Frame::ObjectsUpdated {} => continue,
-            Frame::Error { problem } => return Err(problem.into()),
-        };
-        let expected = answer.frames * answer.channels * 4;
-        let got = match socket.read()? {
-            Message::Binary(samples) => samples.len(),
-            _ => return Err("the answer's samples did not follow it".into()),
-        };
-        if got != expected {
-            return Err(format!("expected {expected} bytes of samples, got {got}").into());
-        }
-        if answer.seq == Some(seq) {
-            return Ok(answer);
-        }
-    }
 }
 
 /// The `p` quantile of `sorted` by nearest rank.

@@ -1,0 +1,217 @@
+//! The impulse-response answer as the service sends it (HTTP and stream
+//! frames alike), converted from the engine's `Response` field by field:
+//! the OpenAPI document shows every field, and an engine refactor cannot
+//! change the contract unnoticed (a test below compares this with the
+//! engine's own serialisation).
+
+use frusta_engine::acoustics::{Response, SoundPath};
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+/// The answer of the impulse-response route.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct ImpulseResponses {
+    pub scene: String,
+    /// The scene revision every response belongs to.
+    pub revision: u64,
+    /// One per source-listener pair, sources outer.
+    pub responses: Vec<PairResponse>,
+}
+
+/// What one listener hears from one source.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct PairResponse {
+    /// Index into the request's `sources`.
+    pub source: usize,
+    /// Index into the request's `listeners`.
+    pub listener: usize,
+    /// The bands every per-band array follows, Hz.
+    pub bands_hz: Vec<f32>,
+    pub speed_of_sound_m_s: f64,
+    /// Validated specular paths, the direct sound (order 0) among them.
+    pub paths: Vec<PathOut>,
+    /// ISO 3382-1 parameters per band.
+    pub parameters: Vec<BandParametersOut>,
+    pub stats: StatsOut,
+    /// The samples: a WAV body, or a stream's binary frame of interleaved
+    /// little-endian f32 (`frames` x `channels`).
+    pub sample_rate: u32,
+    pub channels: usize,
+    pub frames: usize,
+}
+
+/// One specular path from source to listener.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct PathOut {
+    /// Surfaces met: 0 for the direct sound.
+    pub order: usize,
+    pub distance_m: f64,
+    pub delay_s: f64,
+    /// The source mirrored in every surface of the path, `[x, y, z]`.
+    pub image_source: [f64; 3],
+    pub surfaces: Vec<SurfaceOut>,
+    /// Linear pressure amplitude per band, relative to the source level at 1 m.
+    pub pressure_gain: Vec<f32>,
+}
+
+/// One surface a path meets.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SurfaceOut {
+    pub object: String,
+    /// Triangle index in the object's mesh.
+    pub triangle: u32,
+    pub material: String,
+    /// `reflection` or `transmission`.
+    pub event: String,
+    /// Where the path meets the surface, `[x, y, z]`.
+    pub point: [f64; 3],
+}
+
+/// ISO 3382-1 parameters of one band; null where the decay is too short or
+/// too shallow to measure.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct BandParametersOut {
+    pub band_hz: f32,
+    /// Early decay time, s.
+    pub edt_s: Option<f64>,
+    /// Reverberation time from the -5 to -25 dB fit, s.
+    pub t20_s: Option<f64>,
+    /// Reverberation time from the -5 to -35 dB fit, s.
+    pub t30_s: Option<f64>,
+    /// Clarity for speech (50 ms), dB.
+    pub c50_db: Option<f64>,
+    /// Clarity for music (80 ms), dB.
+    pub c80_db: Option<f64>,
+    /// Definition: the fraction of the energy in the first 50 ms.
+    pub d50: Option<f64>,
+    /// Centre time, s.
+    pub ts_s: Option<f64>,
+}
+
+/// What the simulation did.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct StatsOut {
+    /// Frusta traced for this source (shared by its listeners).
+    pub frusta: u64,
+    pub triangle_tests: u64,
+    pub sample_rays: u64,
+    /// Paths proposed before validation.
+    pub proposals: u64,
+    pub paths: usize,
+    /// Whether the source's frusta came from a stream's cache.
+    pub beams_reused: bool,
+    pub trace_ms: f64,
+    pub total_ms: f64,
+    pub threads: usize,
+}
+
+impl From<&Response> for PairResponse {
+    fn from(response: &Response) -> Self {
+        let ir = &response.impulse_response;
+        let stats = &response.stats;
+        Self {
+            source: response.source,
+            listener: response.listener,
+            bands_hz: response.bands_hz.clone(),
+            speed_of_sound_m_s: response.speed_of_sound_m_s,
+            paths: response.paths.iter().map(PathOut::from).collect(),
+            parameters: response
+                .parameters
+                .iter()
+                .map(|b| {
+                    let p = &b.parameters;
+                    BandParametersOut {
+                        band_hz: b.band_hz,
+                        edt_s: p.edt_s,
+                        t20_s: p.t20_s,
+                        t30_s: p.t30_s,
+                        c50_db: p.c50_db,
+                        c80_db: p.c80_db,
+                        d50: p.d50,
+                        ts_s: p.ts_s,
+                    }
+                })
+                .collect(),
+            stats: StatsOut {
+                frusta: stats.frusta,
+                triangle_tests: stats.triangle_tests,
+                sample_rays: stats.sample_rays,
+                proposals: stats.proposals,
+                paths: stats.paths,
+                beams_reused: stats.beams_reused,
+                trace_ms: stats.trace_ms,
+                total_ms: stats.total_ms,
+                threads: stats.threads,
+            },
+            sample_rate: ir.sample_rate,
+            channels: ir.channels.len(),
+            frames: ir.channels.first().map_or(0, Vec::len),
+        }
+    }
+}
+
+impl From<&SoundPath> for PathOut {
+    fn from(path: &SoundPath) -> Self {
+        Self {
+            order: path.order,
+            distance_m: path.distance_m,
+            delay_s: path.delay_s,
+            image_source: path.image_source,
+            surfaces: path
+                .surfaces
+                .iter()
+                .map(|s| SurfaceOut {
+                    object: s.object.clone(),
+                    triangle: s.triangle,
+                    material: s.material.clone(),
+                    event: s.event.to_owned(),
+                    point: s.point,
+                })
+                .collect(),
+            pressure_gain: path.pressure_gain.clone(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use frusta_engine::acoustics::{simulate, AcousticScene};
+    use frusta_engine::scene::generate::BoxRoom;
+    use frusta_engine::scene::{Material, Scene};
+    use glam::Vec3;
+    use serde_json::json;
+
+    #[test]
+    fn the_answer_is_the_engines_response_and_its_samples_shape() {
+        // The engine's own serialisation, field for field: a field the
+        // engine gains or renames fails here until the wire type says so.
+        let room = BoxRoom::new(Vec3::ZERO, Vec3::new(10.0, 6.0, 3.0))
+            .generate()
+            .expect("room");
+        let walls = Material::uniform("walls", 0.1).expect("material");
+        let scene = Scene::single_object("box", room, walls).expect("scene");
+        let options =
+            serde_json::from_value(json!({"max_order": 2, "sample_rate": 8000})).expect("options");
+        let source = Vec3::new(2.0, 3.0, 1.5);
+        let listener = Vec3::new(7.0, 3.0, 1.2);
+        let responses = simulate(
+            &AcousticScene::new(&scene),
+            &[source],
+            &[listener],
+            &options,
+        )
+        .expect("simulate");
+        let response = &responses[0];
+        let mut engine = serde_json::to_value(response).expect("engine JSON");
+        let ir = &response.impulse_response;
+        engine["sample_rate"] = json!(ir.sample_rate);
+        engine["channels"] = json!(ir.channels.len());
+        engine["frames"] = json!(ir.channels[0].len());
+        let wire = serde_json::to_value(PairResponse::from(response)).expect("wire JSON");
+        assert!(response.paths.iter().any(|p| !p.surfaces.is_empty()));
+        assert_eq!(wire, engine);
+        let back: PairResponse = serde_json::from_value(wire).expect("read back");
+        assert_eq!(back, PairResponse::from(response));
+    }
+}

@@ -1,0 +1,255 @@
+//! The impulse-response request: sources, listeners and the engine's
+//! `SimulationOptions`, whose schema is written out here with every
+//! option's default and range (utoipa cannot derive it from the engine's
+//! type), kept in step with the engine's option names by a test.
+
+use std::borrow::Cow;
+
+use frusta_engine::acoustics::propagation::MAX_ORDER;
+use frusta_engine::acoustics::signal::impulse_response::MAX_SAMPLE_RATE;
+use frusta_engine::acoustics::signal::AirConditions;
+use frusta_engine::acoustics::SimulationOptions;
+use frusta_engine::scene::OCTAVE_BANDS_HZ;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use utoipa::openapi::schema::{AdditionalProperties, ArrayBuilder, ObjectBuilder, Type};
+use utoipa::openapi::{Ref, RefOr, Schema};
+use utoipa::{PartialSchema, ToSchema};
+
+use crate::schemas::Vector3;
+
+/// A source or listener.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Point {
+    /// `[x, y, z]` in metres.
+    #[schema(value_type = Vector3)]
+    pub position: [f32; 3],
+}
+
+impl From<Vec3> for Point {
+    fn from(position: Vec3) -> Self {
+        Self {
+            position: position.to_array(),
+        }
+    }
+}
+
+impl ImpulseResponseRequest {
+    /// One source and one listener.
+    pub fn pair(source: Vec3, listener: Vec3, options: SimulationOptions) -> Self {
+        Self {
+            sources: vec![source.into()],
+            listeners: vec![listener.into()],
+            options,
+        }
+    }
+}
+
+/// The body of `POST /v1/scenes/{id}/impulse-responses` (and a stream's
+/// `options`, without the points): sources, listeners and the engine's
+/// `SimulationOptions`, each with its default and range. A test keeps the
+/// option names in step with the engine's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ImpulseResponseRequest {
+    pub sources: Vec<Point>,
+    pub listeners: Vec<Point>,
+    #[serde(flatten)]
+    pub options: SimulationOptions,
+}
+
+impl ImpulseResponseRequest {
+    /// The options' schemas, by name.
+    fn options() -> Vec<(&'static str, RefOr<Schema>)> {
+        let defaults = SimulationOptions::default();
+        let air_defaults = AirConditions::default();
+        let integer = |description: &str, default: u32, min: u32, max: u32| -> RefOr<Schema> {
+            ObjectBuilder::new()
+                .schema_type(Type::Integer)
+                .description(Some(description))
+                .default(Some(default.into()))
+                .minimum(Some(min))
+                .maximum(Some(max))
+                .into()
+        };
+        let number = |description: &str, default: f64, min: f64, max: f64| -> RefOr<Schema> {
+            ObjectBuilder::new()
+                .schema_type(Type::Number)
+                .description(Some(description))
+                .default(Some(default.into()))
+                .minimum(Some(min))
+                .maximum(Some(max))
+                .into()
+        };
+        let choice = |description: &str, values: &[&str]| -> RefOr<Schema> {
+            ObjectBuilder::new()
+                .schema_type(Type::String)
+                .description(Some(description))
+                .enum_values(Some(values.iter().copied()))
+                .default(Some(values[0].into()))
+                .into()
+        };
+        let bands = ArrayBuilder::new()
+            .description(Some(
+                "Octave band centres to compute, each once (default: all)",
+            ))
+            .items(
+                ObjectBuilder::new()
+                    .schema_type(Type::Number)
+                    .enum_values(Some(OCTAVE_BANDS_HZ.iter().map(|&hz| f64::from(hz)))),
+            )
+            .min_items(Some(1))
+            .unique_items(true);
+        let air = ObjectBuilder::new()
+            .schema_type(utoipa::openapi::schema::SchemaType::from_iter([
+                Type::Object,
+                Type::Null,
+            ]))
+            .description(Some(
+                "Air absorption (ISO 9613-1); null turns it off. Omitted fields keep their defaults",
+            ))
+            .property(
+                "temperature_c",
+                number("Air temperature, °C", air_defaults.temperature_c, -60.0, 60.0),
+            )
+            .property(
+                "relative_humidity_percent",
+                number(
+                    "Relative humidity, %",
+                    air_defaults.relative_humidity_percent,
+                    0.0,
+                    100.0,
+                ),
+            )
+            .property(
+                "pressure_kpa",
+                number(
+                    "Atmospheric pressure, kPa",
+                    air_defaults.pressure_kpa,
+                    10.0,
+                    200.0,
+                ),
+            )
+            .additional_properties(Some(AdditionalProperties::FreeForm(false)));
+        let listener_frame = ObjectBuilder::new()
+            .description(Some(
+                "The listener's head: where the nose and the top of the head point (not parallel)",
+            ))
+            .property("forward", Vector3::schema())
+            .property("up", Vector3::schema())
+            .required("forward")
+            .required("up")
+            .additional_properties(Some(AdditionalProperties::FreeForm(false)));
+        vec![
+            (
+                "max_order",
+                integer("Highest reflection order (the server may cap it lower)", defaults.max_order, 0, MAX_ORDER),
+            ),
+            (
+                "sampling",
+                integer("Sub-frusta per frustum side, N (the server may cap it lower)", defaults.sampling, 1, 64),
+            ),
+            (
+                "primary_split",
+                integer("Frusta per cube-face side leaving the source", defaults.primary_split, 1, 16),
+            ),
+            (
+                "energy_threshold",
+                ObjectBuilder::new()
+                    .schema_type(Type::Number)
+                    .description(Some(
+                        "Energy, relative to the source, below which a frustum spawns no more",
+                    ))
+                    .default(Some(f64::from(defaults.energy_threshold).into()))
+                    .minimum(Some(0.0))
+                    .exclusive_maximum(Some(1.0))
+                    .into(),
+            ),
+            (
+                "cells",
+                choice(
+                    "How sub-frusta meet triangles: conservative finds every path, sampled bounds the work",
+                    &["conservative", "sampled"],
+                ),
+            ),
+            ("bands_hz", bands.into()),
+            ("air", air.into()),
+            (
+                "sample_rate",
+                integer("Hz", defaults.sample_rate, 1, MAX_SAMPLE_RATE),
+            ),
+            ("channels", choice("Mono, or binaural (left and right ears)", &["mono", "binaural"])),
+            ("listener_frame", listener_frame.into()),
+        ]
+    }
+}
+
+impl PartialSchema for ImpulseResponseRequest {
+    fn schema() -> RefOr<Schema> {
+        let points = |description: &str| {
+            ArrayBuilder::new()
+                .description(Some(description))
+                .items(Ref::from_schema_name("Point"))
+                .min_items(Some(1))
+        };
+        let mut body = ObjectBuilder::new()
+            .description(Some(
+                "Sources, listeners and simulation options; every option has a default",
+            ))
+            .property("sources", points("Sound sources"))
+            .property(
+                "listeners",
+                points("Listeners; one response per source-listener pair"),
+            )
+            .required("sources")
+            .required("listeners")
+            .additional_properties(Some(AdditionalProperties::FreeForm(false)));
+        for (name, schema) in Self::options() {
+            body = body.property(name, schema);
+        }
+        body.into()
+    }
+}
+
+impl ToSchema for ImpulseResponseRequest {
+    fn name() -> Cow<'static, str> {
+        Cow::Borrowed("ImpulseResponseRequest")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn impulse_response_options_are_the_engines() {
+        let RefOr::T(Schema::Object(body)) = ImpulseResponseRequest::schema() else {
+            panic!("an object schema");
+        };
+        let mut documented: Vec<&str> = body.properties.keys().map(String::as_str).collect();
+        documented.retain(|name| !["sources", "listeners"].contains(name));
+        documented.sort_unstable();
+        let options = serde_json::to_value(SimulationOptions::default()).expect("options");
+        let mut taken: Vec<&str> = options
+            .as_object()
+            .expect("an object")
+            .keys()
+            .map(String::as_str)
+            .collect();
+        taken.sort_unstable();
+        assert_eq!(documented, taken);
+    }
+
+    #[test]
+    fn a_request_is_the_options_beside_the_points() {
+        let request = ImpulseResponseRequest::pair(Vec3::ONE, Vec3::X, Default::default());
+        let json = serde_json::to_value(&request).expect("request");
+        assert_eq!(
+            json["sources"][0]["position"],
+            serde_json::json!([1.0, 1.0, 1.0])
+        );
+        assert_eq!(json["max_order"], SimulationOptions::default().max_order);
+        let back: ImpulseResponseRequest = serde_json::from_value(json).expect("read back");
+        assert_eq!(back, request);
+    }
+}

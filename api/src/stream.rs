@@ -1,0 +1,75 @@
+//! `GET /v1/scenes/{id}/stream`: the WebSocket's frames. The client sends
+//! [`StreamUpdate`]s (JSON text); the server answers with [`StreamFrame`]s
+//! (JSON text), each impulse response followed by a binary frame of
+//! interleaved little-endian f32 samples.
+
+use frusta_engine::acoustics::SimulationOptions;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use crate::impulse_responses::{PairResponse, Point};
+use crate::objects::{EditReport, ObjectPatch};
+use crate::problem::Problem;
+
+/// One message from the client; omitted fields keep their last value.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StreamUpdate {
+    /// Echoed in the answers that include this update, for latency.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seq: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sources: Option<Vec<Point>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub listeners: Option<Vec<Point>>,
+    /// Simulation options, as in the impulse-response route.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Object>)]
+    pub options: Option<SimulationOptions>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub objects: Option<Vec<ObjectMove>>,
+}
+
+/// An object edit sent on a stream: applied and stored as a `PATCH` is.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectMove {
+    /// Name or index.
+    pub object: String,
+    #[serde(flatten)]
+    pub patch: ObjectPatch,
+}
+
+/// A text frame from the server.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum StreamFrame {
+    /// One source-listener pair; its samples follow as a binary frame.
+    ImpulseResponse(StreamAnswer),
+    /// Object moves sent before any source and listener, applied.
+    ObjectsUpdated(ObjectsUpdated),
+    /// An update that was refused, or a job that failed; the stream stays
+    /// open. Nested, not flattened: the problem has a `type` of its own.
+    Error { problem: Problem },
+}
+
+/// An impulse response on a stream: the HTTP route's fields plus what the
+/// stream adds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct StreamAnswer {
+    /// The `seq` of the newest update this answer includes.
+    pub seq: Option<u64>,
+    pub revision: u64,
+    pub compute_ms: f64,
+    /// What each object move of this update did to the hierarchy.
+    pub objects: Vec<EditReport>,
+    #[serde(flatten)]
+    pub pair: PairResponse,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct ObjectsUpdated {
+    pub seq: Option<u64>,
+    pub revision: u64,
+    pub objects: Vec<EditReport>,
+}
