@@ -1,5 +1,6 @@
 //! The engine's error type: every way that input can be invalid, with a
-//! message a user can act on.
+//! message a user can act on, and its [`Cause`], which tells a caller (the
+//! server's status codes) whose fault it was.
 
 /// Everything that can go wrong when building scenes and hierarchies.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -42,8 +43,20 @@ pub enum Error {
     UnknownObject(String),
     #[error("invalid scene: {0}")]
     InvalidScene(String),
+    #[error("{field} {reason}")]
+    InvalidOption { field: String, reason: String },
+    #[error("{what} position {value} is not finite")]
+    InvalidPosition { what: String, value: String },
+    #[error("{0}")]
+    LimitExceeded(String),
+    #[error("{given} materials cannot replace {current}: triangles refer to every one")]
+    MaterialTableShrinks { current: usize, given: usize },
+    #[error("a refit needs the same {expected} triangles, got {actual}")]
+    TriangleCountMismatch { expected: usize, actual: usize },
     #[error("cannot read {path}: {reason}")]
     Io { path: String, reason: String },
+    #[error("cannot use the file reference {path}: {reason}")]
+    InvalidPath { path: String, reason: String },
     #[error("cannot parse {what}: {reason}")]
     Parse { what: String, reason: String },
     #[error("invalid audio option: {0}")]
@@ -56,7 +69,35 @@ pub enum Error {
     Cancelled,
 }
 
+/// Whose fault an [`Error`] is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cause {
+    /// The input is invalid; the message names what to change.
+    Input,
+    /// The input is valid but larger than a limit allows.
+    Limit,
+    /// The computation ran out of time.
+    Deadline,
+    /// The caller cancelled the computation.
+    Cancelled,
+    /// Reading or writing files or audio failed: the caller's environment,
+    /// not the input.
+    Environment,
+}
+
 impl Error {
+    /// Whose fault the error is.
+    pub fn cause(&self) -> Cause {
+        match self {
+            Error::InObject { source, .. } => source.cause(),
+            Error::LimitExceeded(_) => Cause::Limit,
+            Error::DeadlineExceeded { .. } => Cause::Deadline,
+            Error::Cancelled => Cause::Cancelled,
+            Error::Io { .. } | Error::Audio { .. } => Cause::Environment,
+            _ => Cause::Input,
+        }
+    }
+
     /// Wraps an error with the name of the object it happened in.
     pub fn in_object(self, name: &str) -> Error {
         Error::InObject {

@@ -38,4 +38,4 @@ pub mod geometry;
 pub mod query;
 pub mod scene;
 
-pub use error::{Error, Result};
+pub use error::{Cause, Error, Result};

@@ -68,19 +68,23 @@ pub enum ApiError {
 }
 
 impl ApiError {
+    /// Maps an engine error by its cause: input to 4xx naming the field,
+    /// limits to 422, the deadline to the compute limit, anything else to
+    /// 500 with a logged error id.
     pub fn from_engine(e: frusta_engine::Error) -> Self {
-        match e {
-            frusta_engine::Error::UnknownObject(o) => Self::UnknownObject(o),
-            frusta_engine::Error::DeadlineExceeded { limit_ms } => Self::ComputeLimit { limit_ms },
-            // Cancelled work has no client left to read the answer.
-            frusta_engine::Error::Cancelled => Self::Internal("computation cancelled".into()),
-            // The server reads no files on a client's behalf (uploads may
-            // not reference files) and writes audio only to memory, so
-            // these are its own failures, not the input's.
-            e @ (frusta_engine::Error::Io { .. } | frusta_engine::Error::Audio { .. }) => {
+        use frusta_engine::{Cause, Error};
+        match (e.cause(), e) {
+            (_, Error::UnknownObject(o)) => Self::UnknownObject(o),
+            (_, Error::DeadlineExceeded { limit_ms }) => Self::ComputeLimit { limit_ms },
+            (Cause::Input, e) => Self::Invalid(e.to_string()),
+            (Cause::Limit, e) => Self::LimitExceeded(e.to_string()),
+            // Cancelled work has no client left to read the answer. The
+            // server reads no files on a client's behalf (uploads may not
+            // reference files) and writes audio only to memory, so
+            // environment errors are its own failures, not the input's.
+            (Cause::Cancelled | Cause::Deadline | Cause::Environment, e) => {
                 Self::Internal(e.to_string())
             }
-            e => Self::Invalid(e.to_string()),
         }
     }
 
@@ -268,7 +272,53 @@ mod tests {
     use axum::body::Body;
     use axum::http::{Request, StatusCode};
 
+    use super::ApiError;
     use crate::routes::test_support::*;
+
+    /// Engine errors map by their cause: input names the field in a 4xx,
+    /// limits are 422, and a failure of the server's own environment (an
+    /// in-memory WAV write, say) is a 500 with a logged error id.
+    #[tokio::test]
+    async fn engine_errors_map_by_cause() {
+        use frusta_engine::Error;
+        let cases = [
+            (
+                Error::InvalidOption {
+                    field: "sampling".into(),
+                    reason: "0 must lie in 1..=64".into(),
+                },
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "sampling",
+            ),
+            (
+                Error::LimitExceeded("hall would generate 9e9 triangles".into()),
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "9e9",
+            ),
+            (
+                Error::UnknownObject("door".into()),
+                StatusCode::NOT_FOUND,
+                "door",
+            ),
+            (
+                Error::Audio {
+                    path: "<memory>".into(),
+                    reason: "forced".into(),
+                },
+                StatusCode::INTERNAL_SERVER_ERROR,
+                "forced",
+            ),
+        ];
+        for (error, status, named) in cases {
+            let internal = status == StatusCode::INTERNAL_SERVER_ERROR;
+            let problem = ApiError::from_engine(error).problem();
+            assert_eq!(problem.status, status.as_u16(), "{problem}");
+            assert!(problem.detail.contains(named), "{problem}");
+            assert_eq!(problem.error_id.is_some(), internal, "{problem}");
+        }
+        let limit = ApiError::from_engine(Error::LimitExceeded("x".into())).problem();
+        assert!(limit.kind.ends_with("limit-exceeded"), "{}", limit.kind);
+    }
 
     #[tokio::test]
     async fn errors_axum_writes_itself_are_problem_documents() {

@@ -22,9 +22,6 @@ use crate::store::{ObjectOverlay, SceneMeta, Store, StoredScene};
 pub struct LiveScene {
     pub scene: Scene,
     pub acoustic: AcousticScene,
-    /// Bumped by every edit; responses carry it so a client can tell which
-    /// state of the scene an answer belongs to.
-    pub revision: u64,
     pub build_ms: f64,
     /// Set by [`Registry::delete`] under the write lock: an edit that
     /// looked the scene up before the delete finds it here and fails,
@@ -60,10 +57,11 @@ impl SceneEntry {
         self.revisions.subscribe()
     }
 
-    fn bump(&self, live: &mut LiveScene) -> u64 {
-        live.revision += 1;
-        self.revisions.send_replace(Some(live.revision));
-        live.revision
+    /// Tells the streams the engine's new revision after an edit.
+    fn announce(&self, live: &LiveScene) -> u64 {
+        let revision = live.acoustic.revision();
+        self.revisions.send_replace(Some(revision));
+        revision
     }
 }
 
@@ -301,7 +299,6 @@ impl Registry {
             live: RwLock::new(LiveScene {
                 scene,
                 acoustic,
-                revision: 0,
                 build_ms,
                 deleted: false,
             }),
@@ -399,7 +396,7 @@ impl Registry {
                 );
                 live.scene.objects[object].mesh = m;
             }
-            let revision = entry.bump(&mut live);
+            let revision = entry.announce(&live);
             reports.push(EditReport {
                 revision,
                 action: match update.map(|u| u.action) {
@@ -449,7 +446,7 @@ impl Registry {
             .set_materials(scene.materials.clone())
             .map_err(ApiError::from_engine)?;
         live.scene = scene;
-        Ok(entry.bump(&mut live))
+        Ok(entry.announce(&live))
     }
 }
 

@@ -173,7 +173,7 @@ pub fn run(
         None => simulate_until(scene, sources, listeners, options, deadline, cancel),
     }
     .map_err(ApiError::from_engine)?;
-    Ok((live.revision, responses))
+    Ok((live.acoustic.revision(), responses))
 }
 
 /// Interleaved little-endian f32 frames, the binary form of an impulse

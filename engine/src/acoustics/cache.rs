@@ -10,7 +10,7 @@ use super::tracer::{trace_keeping, TraceOptions};
 use super::{AcousticScene, FoundPaths};
 use crate::Result;
 
-/// Beams per source, valid for one scene revision, trace options and
+/// Beams per source, valid for one scene state, trace options and
 /// material table. Holds only the sources of the latest call, and at most
 /// [`Self::max_beams`] beams per source (about 160 bytes each): a trace
 /// with more keeps none and is simply done again next time.
@@ -31,12 +31,12 @@ impl Default for BeamCache {
     }
 }
 
-/// Everything beams depend on besides the source: the scene's revision
+/// Everything beams depend on besides the source: the scene's state
 /// (geometry and materials, whose absorption decides where the energy
 /// threshold stops tracing) and the options.
 #[derive(Debug, PartialEq)]
 struct Key {
-    revision: u64,
+    state: u64,
     options: TraceOptions,
 }
 
@@ -69,11 +69,11 @@ impl BeamCache {
         let stale = self
             .key
             .as_ref()
-            .is_none_or(|k| k.revision != scene.revision() || k.options != *options);
+            .is_none_or(|k| k.state != scene.state() || k.options != *options);
         if stale {
             self.entries.clear();
             self.key = Some(Key {
-                revision: scene.revision(),
+                state: scene.state(),
                 options: options.clone(),
             });
         }

@@ -71,22 +71,25 @@ impl SimulationOptions {
     /// Band indices of [`Self::bands_hz`], checked.
     fn band_indices(&self) -> Result<Vec<usize>> {
         if self.bands_hz.is_empty() {
-            return Err(Error::InvalidScene(
-                "bands_hz is empty; name at least one octave band".into(),
-            ));
+            return Err(Error::InvalidOption {
+                field: "bands_hz".into(),
+                reason: "is empty; name at least one octave band".into(),
+            });
         }
         let mut out = Vec::with_capacity(self.bands_hz.len());
         for &hz in &self.bands_hz {
             let b = OCTAVE_BANDS_HZ
                 .iter()
                 .position(|&c| c == hz)
-                .ok_or_else(|| {
-                    Error::InvalidScene(format!(
-                        "band {hz} Hz is not one of the octave bands {OCTAVE_BANDS_HZ:?}"
-                    ))
+                .ok_or_else(|| Error::InvalidOption {
+                    field: "bands_hz".into(),
+                    reason: format!("{hz} Hz is not one of the octave bands {OCTAVE_BANDS_HZ:?}"),
                 })?;
             if out.contains(&b) {
-                return Err(Error::InvalidScene(format!("band {hz} Hz is listed twice")));
+                return Err(Error::InvalidOption {
+                    field: "bands_hz".into(),
+                    reason: format!("lists {hz} Hz twice"),
+                });
             }
             out.push(b);
         }
@@ -96,28 +99,28 @@ impl SimulationOptions {
     /// Checks every option; the error names the one at fault.
     pub fn trace_options(&self) -> Result<TraceOptions> {
         if self.max_order > MAX_ORDER {
-            return Err(Error::InvalidScene(format!(
-                "max_order {} exceeds {MAX_ORDER}",
-                self.max_order
-            )));
+            return Err(Error::InvalidOption {
+                field: "max_order".into(),
+                reason: format!("{} exceeds {MAX_ORDER}", self.max_order),
+            });
         }
         if !(1..=64).contains(&self.sampling) {
-            return Err(Error::InvalidScene(format!(
-                "sampling {} must lie in 1..=64",
-                self.sampling
-            )));
+            return Err(Error::InvalidOption {
+                field: "sampling".into(),
+                reason: format!("{} must lie in 1..=64", self.sampling),
+            });
         }
         if !(1..=16).contains(&self.primary_split) {
-            return Err(Error::InvalidScene(format!(
-                "primary_split {} must lie in 1..=16",
-                self.primary_split
-            )));
+            return Err(Error::InvalidOption {
+                field: "primary_split".into(),
+                reason: format!("{} must lie in 1..=16", self.primary_split),
+            });
         }
         if !(self.energy_threshold >= 0.0 && self.energy_threshold < 1.0) {
-            return Err(Error::InvalidScene(format!(
-                "energy_threshold {} must lie in [0, 1)",
-                self.energy_threshold
-            )));
+            return Err(Error::InvalidOption {
+                field: "energy_threshold".into(),
+                reason: format!("{} must lie in [0, 1)", self.energy_threshold),
+            });
         }
         if let Some(air) = self.air {
             air.validated()?;
@@ -231,7 +234,7 @@ pub fn simulate_until(
 
 /// [`simulate`], reusing the beams `cache` holds for a source when the
 /// source (to the bit), the trace options, the materials and the scene's
-/// [`revision`](AcousticScene::revision) are unchanged: moving listeners
+/// [`state`](AcousticScene::state) are unchanged: moving listeners
 /// then cost no trace. The cache keeps the sources of this call only.
 ///
 /// Past `deadline` the call stops with [`Error::DeadlineExceeded`], and

@@ -25,13 +25,16 @@ pub struct AcousticScene {
     object_names: Vec<String>,
     bvh: SceneBvh,
     surfaces: Surfaces,
+    /// Changes since the scene was built: what answers name.
     revision: u64,
+    /// This state's identity for caches, new with every change.
+    state: u64,
 }
 
-/// Revisions come from one process-wide counter, so two scenes share one
-/// only when one is an unchanged clone of the other: a cache keyed by the
-/// revision cannot mistake one scene, or one state of it, for another.
-fn next_revision() -> u64 {
+/// States come from one process-wide counter, so two scenes share one only
+/// when one is an unchanged clone of the other: a cache keyed by the state
+/// cannot mistake one scene, or one state of it, for another.
+fn next_state() -> u64 {
     static NEXT: AtomicU64 = AtomicU64::new(1);
     NEXT.fetch_add(1, Ordering::Relaxed)
 }
@@ -53,15 +56,33 @@ impl AcousticScene {
             object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
             bvh,
             surfaces,
-            revision: next_revision(),
+            revision: 0,
+            state: next_state(),
         }
     }
 
-    /// Changes with every [`Self::set_transform`], [`Self::update_mesh`]
-    /// and [`Self::set_materials`] (and differs between scenes): what
-    /// traced beams are valid for.
+    /// How many changes ([`Self::set_transform`], [`Self::update_mesh`],
+    /// [`Self::set_materials`]) the scene has had since it was built: the
+    /// revision answers name, so a client can tell which state they
+    /// belong to.
     pub fn revision(&self) -> u64 {
         self.revision
+    }
+
+    /// This state's identity: process-unique and new with every change
+    /// (also a refused one, since dropping a cache is always safe), so it
+    /// differs between scenes. What traced beams are valid for.
+    pub fn state(&self) -> u64 {
+        self.state
+    }
+
+    /// Records a change: a new state, and one more revision if it took.
+    fn changed<T>(&mut self, result: Result<T>) -> Result<T> {
+        self.state = next_state();
+        if result.is_ok() {
+            self.revision += 1;
+        }
+        result
     }
 
     /// The material table; triangles hold indices into it.
@@ -77,15 +98,13 @@ impl AcousticScene {
     /// table may grow or change coefficients but not shrink.
     pub fn set_materials(&mut self, materials: Vec<Material>) -> Result<()> {
         if materials.len() < self.materials.len() {
-            return Err(Error::InvalidScene(format!(
-                "{} materials cannot replace {}: triangles refer to every one",
-                materials.len(),
-                self.materials.len()
-            )));
+            return Err(Error::MaterialTableShrinks {
+                current: self.materials.len(),
+                given: materials.len(),
+            });
         }
-        self.revision = next_revision();
         self.materials = materials;
-        Ok(())
+        self.changed(Ok(()))
     }
 
     pub fn bvh(&self) -> &SceneBvh {
@@ -98,12 +117,11 @@ impl AcousticScene {
 
     /// Moves an object rigidly.
     pub fn set_transform(&mut self, object: usize, transform: RigidTransform) -> Result<()> {
-        // Even a refused change moves the revision: dropping a cache is
-        // always safe.
-        self.revision = next_revision();
-        self.bvh.set_transform(object, transform)?;
-        self.surfaces.update_object(&self.bvh, object);
-        Ok(())
+        let result = self.bvh.set_transform(object, transform);
+        if result.is_ok() {
+            self.surfaces.update_object(&self.bvh, object);
+        }
+        self.changed(result)
     }
 
     /// Gives an object new geometry: its tree is refitted or rebuilt.
@@ -114,18 +132,20 @@ impl AcousticScene {
         materials: &[MaterialId],
         threshold: f32,
     ) -> Result<UpdateReport> {
-        self.revision = next_revision();
-        let report = self.bvh.update_mesh(object, mesh, materials, threshold)?;
-        self.surfaces.update_object(&self.bvh, object);
-        Ok(report)
+        let result = self.bvh.update_mesh(object, mesh, materials, threshold);
+        if result.is_ok() {
+            self.surfaces.update_object(&self.bvh, object);
+        }
+        self.changed(result)
     }
 
     /// Checks that a source or listener position can be simulated.
     pub fn check_point(&self, what: &str, p: Vec3) -> Result<DVec3> {
         if !p.is_finite() {
-            return Err(Error::InvalidScene(format!(
-                "{what} position {p} is not finite"
-            )));
+            return Err(Error::InvalidPosition {
+                what: what.into(),
+                value: p.to_string(),
+            });
         }
         Ok(p.as_dvec3())
     }

@@ -141,11 +141,10 @@ impl MeshBvh {
     /// one reverse sweep.
     pub fn refit(&mut self, mesh: &TriangleMesh) -> Result<RefitReport> {
         if mesh.triangle_count() != self.triangles.len() {
-            return Err(Error::InvalidScene(format!(
-                "refit needs the same {} triangles, got {}",
-                self.triangles.len(),
-                mesh.triangle_count()
-            )));
+            return Err(Error::TriangleCountMismatch {
+                expected: self.triangles.len(),
+                actual: mesh.triangle_count(),
+            });
         }
         Ok(self.refit_same_count(mesh))
     }

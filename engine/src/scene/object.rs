@@ -60,8 +60,9 @@ impl Scene {
     pub fn world_mesh(&self) -> Result<TriangleMesh> {
         let (mut positions, mut triangles) = (Vec::new(), Vec::new());
         for o in &self.objects {
-            let base = u32::try_from(positions.len())
-                .map_err(|_| Error::InvalidScene("more than 4 billion vertices".into()))?;
+            let base = u32::try_from(positions.len()).map_err(|_| {
+                Error::LimitExceeded("a scene holds at most 4 billion vertices".into())
+            })?;
             positions.extend(
                 o.mesh
                     .positions()

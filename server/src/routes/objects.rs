@@ -286,6 +286,6 @@ mod tests {
             .unwrap();
         let (status, _, _) = server.send(text).await;
         assert_eq!(status, StatusCode::UNSUPPORTED_MEDIA_TYPE);
-        assert_eq!(entry.read().revision, 2);
+        assert_eq!(entry.read().acoustic.revision(), 2);
     }
 }

@@ -24,7 +24,7 @@ pub fn summary(entry: &SceneEntry) -> SceneSummary {
     let live = entry.read();
     SceneSummary {
         id: entry.id.clone(),
-        revision: live.revision,
+        revision: live.acoustic.revision(),
         bundled: entry.meta.bundled,
         created_unix_ms: entry.meta.created_unix_ms,
         triangles: live.scene.triangle_count(),

@@ -290,7 +290,7 @@ impl Stream {
                             let cache = Some(&mut cache);
                             simulation::run(&entry, r, cache, Some(&cancel), job_state.limits())?
                         }
-                        None => (entry.read().revision, Vec::new()),
+                        None => (entry.read().acoustic.revision(), Vec::new()),
                     };
                     Ok(Computed {
                         seq: pending.seq,
@@ -433,7 +433,7 @@ mod tests {
         };
         let e = registry.edit_objects(&entry, &[(1, moved), (1, wrong_count)]);
         assert!(e.is_err());
-        assert_eq!(entry.read().revision, 0);
+        assert_eq!(entry.read().acoustic.revision(), 0);
         let server = server.restart();
         let entry = server.state.registry().get("box").unwrap();
         let panel = &entry.read().scene.objects[1];

@@ -23,7 +23,7 @@ pub const MAX_GENERATED_TRIANGLES: u64 = 50_000_000;
 /// Rejects a generator request whose triangle count exceeds the cap.
 fn check_triangle_budget(generator: &str, triangles: u64) -> Result<()> {
     if triangles > MAX_GENERATED_TRIANGLES {
-        return Err(Error::InvalidScene(format!(
+        return Err(Error::LimitExceeded(format!(
             "{generator} would generate {triangles} triangles; the limit is {MAX_GENERATED_TRIANGLES}"
         )));
     }

@@ -51,7 +51,7 @@ pub fn parse_gltf(bytes: &[u8], base: Option<&Path>, max_triangles: u64) -> Resu
     };
     let triangles = instantiated_triangles(&document, &roots)?;
     if triangles > max_triangles {
-        return Err(Error::InvalidScene(format!(
+        return Err(Error::LimitExceeded(format!(
             "the glTF instantiates {triangles} triangles; the limit is {max_triangles}"
         )));
     }

@@ -9,7 +9,7 @@ use crate::{Error, Result};
 /// Resolves `file` against `base` and checks that the result lies inside
 /// `base`.
 pub fn resolve_relative(base: Option<&Path>, file: &str) -> Result<PathBuf> {
-    let fail = |reason: &str| Error::Io {
+    let fail = |reason: &str| Error::InvalidPath {
         path: file.to_owned(),
         reason: reason.to_owned(),
     };
