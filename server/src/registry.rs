@@ -10,7 +10,7 @@ use frusta_api::objects::{EditAction, EditReport};
 use frusta_engine::acoustics::AcousticScene;
 use frusta_engine::bvh::{UpdateReport, DEFAULT_REBUILD_THRESHOLD};
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
-use frusta_engine::scene::{Material, Scene};
+use frusta_engine::scene::{Material, Scene, MAX_MATERIALS};
 use glam::Vec3;
 use tokio::sync::watch;
 
@@ -438,9 +438,17 @@ impl Registry {
                 }
             }
         }
-        let document = reloadable(&scene)?;
+        if scene.materials.len() > MAX_MATERIALS {
+            return Err(ApiError::LimitExceeded(format!(
+                "the edit would give the scene {} materials; it holds at most {MAX_MATERIALS}",
+                scene.materials.len()
+            )));
+        }
+        for m in &scene.materials {
+            m.clone().validated().map_err(ApiError::from_engine)?;
+        }
         self.store
-            .put_scene(&entry.id, &entry.meta, &document)
+            .put_materials(&entry.id, &scene.materials)
             .map_err(ApiError::storage)?;
         live.acoustic
             .set_materials(scene.materials.clone())
@@ -507,6 +515,20 @@ fn restore(s: StoredScene) -> frusta_engine::Result<(SceneMeta, Scene)> {
     let skipped = |object: u32, e: frusta_engine::Error| {
         tracing::error!(scene = %s.id, object, error = %e, "stored object edit does not load; skipped");
     };
+    if let Some(materials) = s.materials {
+        let valid: frusta_engine::Result<Vec<Material>> =
+            materials.into_iter().map(Material::validated).collect();
+        match valid {
+            // Triangles refer to every material of the document's table.
+            Ok(m) if m.len() >= scene.materials.len() => scene.materials = m,
+            Ok(m) => {
+                tracing::error!(scene = %s.id, stored = m.len(), "stored material table is shorter than the document's; skipped")
+            }
+            Err(e) => {
+                tracing::error!(scene = %s.id, error = %e, "stored material table does not load; skipped")
+            }
+        }
+    }
     for (object, t) in s.transforms {
         if let Some(o) = scene.objects.get_mut(object as usize) {
             match t.validated() {
@@ -576,7 +598,7 @@ mod tests {
         let (status, _, problem) = server.send(patch_json(uri, &materials("b", 40_000))).await;
         assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{problem}");
         assert!(
-            problem["detail"].as_str().unwrap().contains("restart"),
+            problem["detail"].as_str().unwrap().contains("65536"),
             "{problem}"
         );
         let server = server.restart();

@@ -2,9 +2,10 @@
 //! database in the data directory.
 //!
 //! A scene is its self-contained JSON document plus overlays: the latest
-//! transform and the latest vertex positions of each edited object. An edit
-//! therefore writes a few bytes (a transform) or one object's positions,
-//! never the whole scene, which keeps streamed object updates cheap. Every
+//! transform and the latest vertex positions of each edited object, and
+//! the latest material table. An edit therefore writes a few bytes (a
+//! transform, the materials) or one object's positions, never the whole
+//! scene, which keeps streamed object updates and material edits cheap. Every
 //! call is one redb write transaction committed with fsync before it
 //! returns, so what the server acknowledged survives `kill -9`, and a
 //! half-written transaction is discarded on the next open.
@@ -12,6 +13,7 @@
 use std::path::Path;
 
 use frusta_engine::geometry::RigidTransform;
+use frusta_engine::scene::Material;
 use glam::Vec3;
 use redb::{Database, ReadableTable, TableDefinition};
 use serde::{Deserialize, Serialize};
@@ -24,6 +26,9 @@ const DOCUMENTS: TableDefinition<&str, &str> = TableDefinition::new("scene_docum
 const TRANSFORMS: TableDefinition<(&str, u32), &[u8]> = TableDefinition::new("object_transforms");
 /// (scene id, object index) -> vertex positions, little-endian f32 x, y, z.
 const POSITIONS: TableDefinition<(&str, u32), &[u8]> = TableDefinition::new("object_positions");
+/// Scene id -> the whole material table as JSON (a list of engine
+/// materials), replacing the document's.
+const MATERIALS: TableDefinition<&str, &[u8]> = TableDefinition::new("scene_materials");
 /// Store-wide flags, such as whether the bundled scenes were ever added.
 const FLAGS: TableDefinition<&str, bool> = TableDefinition::new("flags");
 
@@ -72,6 +77,8 @@ pub struct StoredScene {
     pub document: String,
     pub transforms: Vec<(u32, RigidTransform)>,
     pub positions: Vec<(u32, Vec<Vec3>)>,
+    /// The material table of the last material edit, if any.
+    pub materials: Option<Vec<Material>>,
 }
 
 pub struct Store {
@@ -91,6 +98,7 @@ impl Store {
             txn.open_table(DOCUMENTS)?;
             txn.open_table(TRANSFORMS)?;
             txn.open_table(POSITIONS)?;
+            txn.open_table(MATERIALS)?;
             txn.open_table(FLAGS)?;
         }
         txn.commit()?;
@@ -131,6 +139,15 @@ impl Store {
         })
     }
 
+    /// Stores a scene's new material table (its document is unchanged).
+    pub fn put_materials(&self, id: &str, materials: &[Material]) -> StoreResult<()> {
+        let bytes = serde_json::to_vec(materials).expect("materials serialise");
+        self.write(|txn| {
+            txn.open_table(MATERIALS)?.insert(id, bytes.as_slice())?;
+            Ok(())
+        })
+    }
+
     /// Stores object edits (new transforms and vertex positions) in one
     /// transaction: after a crash, all of them are stored or none.
     pub fn put_object_edits(&self, id: &str, edits: &[ObjectOverlay<'_>]) -> StoreResult<()> {
@@ -162,6 +179,7 @@ impl Store {
         let documents = txn.open_table(DOCUMENTS)?;
         let transforms = txn.open_table(TRANSFORMS)?;
         let positions = txn.open_table(POSITIONS)?;
+        let materials = txn.open_table(MATERIALS)?;
         let mut out = Vec::new();
         for entry in meta.iter()? {
             let (id, m) = entry?;
@@ -171,11 +189,19 @@ impl Store {
             };
             let meta: SceneMeta = serde_json::from_slice(m.value())
                 .map_err(|e| corrupt(format!("metadata of scene {id}: {e}")))?;
+            let table = match materials.get(id.as_str())? {
+                Some(m) => Some(
+                    serde_json::from_slice(m.value())
+                        .map_err(|e| corrupt(format!("materials of scene {id}: {e}")))?,
+                ),
+                None => None,
+            };
             let mut scene = StoredScene {
                 meta,
                 document: document.value().to_owned(),
                 transforms: Vec::new(),
                 positions: Vec::new(),
+                materials: table,
                 id,
             };
             let key = scene.id.as_str();
@@ -209,6 +235,7 @@ fn clear_overlays(txn: &redb::WriteTransaction, id: &str) -> StoreResult<()> {
         .retain_in((id, 0)..=(id, u32::MAX), |_, _| false)?;
     txn.open_table(POSITIONS)?
         .retain_in((id, 0)..=(id, u32::MAX), |_, _| false)?;
+    txn.open_table(MATERIALS)?.remove(id)?;
     Ok(())
 }
 
@@ -273,6 +300,11 @@ mod tests {
                     ],
                 )
                 .expect("edits");
+            let felt = Material::uniform("felt", 0.7).unwrap();
+            store
+                .put_materials("a", std::slice::from_ref(&felt))
+                .expect("materials");
+            store.put_materials("b", &[felt]).expect("materials");
             store.delete_scene("b").expect("delete");
         }
         let store = Store::open(&dir).expect("reopen");
@@ -290,6 +322,10 @@ mod tests {
             a.positions,
             vec![(0, vec![Vec3::X, Vec3::new(0.5, -2.0, 1e-7)])]
         );
+        assert_eq!(
+            a.materials,
+            Some(vec![Material::uniform("felt", 0.7).unwrap()])
+        );
     }
 
     #[test]
@@ -306,12 +342,17 @@ mod tests {
         }];
         store.put_object_edits("a", &moved).expect("transform");
         store.put_object_edits("ab", &moved).expect("transform");
+        let felt = [Material::uniform("felt", 0.7).unwrap()];
+        store.put_materials("a", &felt).expect("materials");
+        store.put_materials("ab", &felt).expect("materials");
         store.put_scene("a", &meta(), "new").expect("replace");
         let scenes = store.load_all().expect("load");
         std::fs::remove_dir_all(&dir).expect("clean up");
         assert_eq!(scenes[0].document, "new");
         assert!(scenes[0].transforms.is_empty());
+        assert!(scenes[0].materials.is_none());
         assert_eq!(scenes[1].transforms.len(), 1, "a prefix id keeps its edits");
+        assert!(scenes[1].materials.is_some());
     }
 
     #[test]

@@ -13,7 +13,7 @@ use super::tracer::{trace, trace_beams, TraceInput, TraceOptions, TraceStats};
 use crate::bvh::{BuildOptions, UpdateReport};
 use crate::geometry::{RigidTransform, TriangleMesh};
 use crate::query::SceneBvh;
-use crate::scene::{Material, MaterialId, Scene};
+use crate::scene::{Material, MaterialId, Scene, MAX_MATERIALS};
 use crate::{Error, Result};
 
 /// What sound propagation reads of a scene.
@@ -102,6 +102,12 @@ impl AcousticScene {
                 current: self.materials.len(),
                 given: materials.len(),
             });
+        }
+        if materials.len() > MAX_MATERIALS {
+            return Err(Error::LimitExceeded(format!(
+                "{} materials; a scene holds at most {MAX_MATERIALS}",
+                materials.len()
+            )));
         }
         self.materials = materials;
         self.changed(Ok(()))

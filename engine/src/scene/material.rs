@@ -15,6 +15,9 @@ pub type Bands = [f32; BAND_COUNT];
 /// Index of a material in its scene's material table.
 pub type MaterialId = u16;
 
+/// The most materials a scene's table can hold: every id is a [`MaterialId`].
+pub const MAX_MATERIALS: usize = MaterialId::MAX as usize + 1;
+
 /// An acoustic surface material. All coefficients are energy fractions in
 /// `[0, 1]` per octave band: `absorption` is the fraction not reflected,
 /// `scattering` the fraction of the reflected energy that is diffuse, and

@@ -18,7 +18,7 @@ use serde::Deserialize;
 use super::generate::{BoxRoom, Hall, LRoom, TwoRooms};
 use super::library::builtin_material;
 use super::load::{load_mesh_file, resolve_relative};
-use super::{Bands, Material, MaterialId, RawMesh, Scene, SceneObject};
+use super::{Bands, Material, MaterialId, RawMesh, Scene, SceneObject, MAX_MATERIALS};
 use crate::geometry::{RigidTransform, TriangleMesh};
 use crate::{Error, Result};
 
@@ -141,10 +141,7 @@ struct MaterialTable {
 impl MaterialTable {
     fn push(&mut self, material: Material) -> Result<MaterialId> {
         let id = MaterialId::try_from(self.materials.len()).map_err(|_| {
-            Error::InvalidScene(format!(
-                "more than {} materials",
-                MaterialId::MAX as usize + 1
-            ))
+            Error::LimitExceeded(format!("a scene holds at most {MAX_MATERIALS} materials"))
         })?;
         self.ids.insert(material.name.clone(), id);
         self.materials.push(material);
