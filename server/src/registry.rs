@@ -94,12 +94,9 @@ impl ObjectEdit {
                     },
                 ));
             }
-            if let Some(i) = vertices.iter().position(|v| !v.is_finite()) {
-                return Err(ApiError::Invalid(format!(
-                    "vertex {i} is {:?}: positions must be finite",
-                    vertices[i].to_array()
-                )));
-            }
+            // Finite and in range, as the mesh will check: a stream merges
+            // this edit with others, which a bad one would sink.
+            frusta_engine::geometry::check_positions(vertices).map_err(ApiError::from_engine)?;
         }
         Ok(())
     }

@@ -119,7 +119,9 @@ impl TriangleMesh {
     }
 }
 
-fn check_positions(positions: &[Vec3]) -> Result<()> {
+/// Checks vertex positions as [`TriangleMesh::new`] does: finite and at
+/// most [`MAX_COORDINATE`] in magnitude.
+pub fn check_positions(positions: &[Vec3]) -> Result<()> {
     for (vertex, p) in positions.iter().enumerate() {
         if !p.is_finite() {
             return Err(Error::NonFiniteVertex {

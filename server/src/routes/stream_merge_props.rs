@@ -5,6 +5,7 @@
 
 use std::collections::BTreeMap;
 
+use frusta_engine::geometry::MAX_COORDINATE;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
 use serde_json::{json, Value};
@@ -54,10 +55,11 @@ impl Move {
             q.iter().all(fits) && q.iter().map(|x| x * x).sum::<f64>().sqrt() >= 1e-5
         });
         let translation_ok = self.translation.is_none_or(|t| t.iter().all(fits));
-        let vertices_ok = self
-            .vertices
-            .as_ref()
-            .is_none_or(|v| self.index == Some(1) && v.len() == 4 && v.iter().flatten().all(fits));
+        let vertices_ok = self.vertices.as_ref().is_none_or(|v| {
+            // A mesh's coordinates stay within the engine's range.
+            let in_range = |x: &f64| x.abs() <= f64::from(MAX_COORDINATE);
+            self.index == Some(1) && v.len() == 4 && v.iter().flatten().all(in_range)
+        });
         let something =
             self.rotation.is_some() || self.translation.is_some() || self.vertices.is_some();
         self.index.is_some() && something && rotation_ok && translation_ok && vertices_ok
@@ -78,9 +80,10 @@ impl Move {
     }
 }
 
-/// Components: mostly ordinary, sometimes past f32 (not finite once read).
+/// Components: mostly ordinary, sometimes past f32 (not finite once read)
+/// or past the range a mesh may hold (finite, but refused as a vertex).
 fn component() -> impl Strategy<Value = f64> {
-    prop_oneof![8 => -100.0..100.0f64, 1 => Just(1e39), 1 => Just(0.0)]
+    prop_oneof![8 => -100.0..100.0f64, 1 => Just(1e39), 1 => Just(1e20), 1 => Just(0.0)]
 }
 
 fn object_move() -> impl Strategy<Value = Move> {
