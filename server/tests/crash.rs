@@ -17,6 +17,9 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use frusta_api::objects::ObjectPatch;
+use frusta_api::stream::{ObjectMove, StreamUpdate};
+use frusta_client::{Answer, Client, Config, Error, Received};
 use serde_json::Value;
 
 /// A 6 x 5 x 3 m room; a door (a 1 x 2 m quad in the plane x = 3 of its
@@ -127,12 +130,12 @@ fn start(dir: &Path) -> (Child, String) {
     (child, addr)
 }
 
-fn agent() -> ureq::Agent {
-    ureq::Agent::config_builder()
-        .http_status_as_error(false)
-        .timeout_global(Some(Duration::from_secs(20)))
-        .build()
-        .into()
+fn client(addr: &str) -> Client {
+    let config = Config {
+        timeout: Some(Duration::from_secs(20)),
+        ..Config::default()
+    };
+    Client::new(&format!("http://{addr}"), config).expect("client")
 }
 
 /// A write's outcome: answered with success, refused (a bug: every write
@@ -143,51 +146,49 @@ enum Sent {
     Cut,
 }
 
-fn http(result: Result<ureq::http::Response<ureq::Body>, ureq::Error>) -> Sent {
+fn http(result: Result<Answer, Error>) -> Sent {
     match result {
-        Ok(r) if r.status().is_success() => Sent::Done,
-        Ok(mut r) => Sent::Refused(format!(
+        Ok(a) if a.is_success() => Sent::Done,
+        Ok(a) => Sent::Refused(format!(
             "{}: {}",
-            r.status(),
-            r.body_mut().read_to_string().unwrap_or_default()
+            a.status,
+            String::from_utf8_lossy(&a.body)
         )),
         Err(_) => Sent::Cut,
     }
 }
 
 /// Moves the door over a stream, acknowledged by `objects_updated`.
-fn stream_move(addr: &str, id: &str, yz: [f32; 2]) -> Sent {
-    let Ok((mut socket, _)) = tungstenite::connect(format!("ws://{addr}/v1/scenes/{id}/stream"))
-    else {
+fn stream_move(client: &Client, id: &str, yz: [f32; 2]) -> Sent {
+    let Ok(mut stream) = client.stream(id) else {
         return Sent::Cut;
     };
-    let update =
-        serde_json::json!({"objects": [{"object": "door", "translation": [0.0, yz[0], yz[1]]}]});
-    if socket
-        .send(tungstenite::Message::text(update.to_string()))
-        .is_err()
-    {
+    let update = StreamUpdate {
+        objects: Some(vec![ObjectMove {
+            object: "door".into(),
+            patch: ObjectPatch {
+                translation: Some([0.0, yz[0], yz[1]]),
+                ..ObjectPatch::default()
+            },
+        }]),
+        ..StreamUpdate::default()
+    };
+    if stream.send(&update).is_err() {
         return Sent::Cut;
     }
-    loop {
-        match socket.read() {
-            Ok(tungstenite::Message::Text(text)) => {
-                let answer: Value = serde_json::from_str(&text).expect("JSON answer");
-                let _ = socket.close(None);
-                return match answer["type"].as_str() {
-                    Some("objects_updated") => Sent::Done,
-                    _ => Sent::Refused(text.to_string()),
-                };
-            }
-            Ok(_) => continue,
-            Err(_) => return Sent::Cut,
-        }
-    }
+    let sent = match stream.read() {
+        Ok(Received::ObjectsUpdated(_)) => Sent::Done,
+        Ok(Received::Error(problem)) => Sent::Refused(problem.to_string()),
+        Ok(other) => Sent::Refused(format!("{other:?}")),
+        Err(_) => Sent::Cut,
+    };
+    let _ = stream.close();
+    sent
 }
 
 /// One random write: picks it, records it as in flight, sends it.
-fn write_one(rng: &mut Rng, ledger: &Mutex<Ledger>, agent: &ureq::Agent, addr: &str) -> Sent {
-    let base = format!("http://{addr}/v1/scenes");
+fn write_one(rng: &mut Rng, ledger: &Mutex<Ledger>, client: &Client) -> Sent {
+    let base = "/v1/scenes";
     let (id, before) = {
         let mut l = ledger.lock().expect("ledger");
         let live: Vec<(String, Model)> = l
@@ -211,31 +212,25 @@ fn write_one(rng: &mut Rng, ledger: &Mutex<Ledger>, agent: &ureq::Agent, addr: &
             let after = Model::Mesh;
             record(&after);
             let url = format!("{base}?id={id}&object=mesh");
-            let sent = http(agent.post(&url).content_type("model/obj").send(OBJ));
+            let sent = http(client.post(&url, "model/obj", OBJ.as_bytes()));
             (after, sent)
         }
         Model::Absent => {
             let after = Model::Room(Room::new());
             record(&after);
             let url = format!("{base}?id={id}");
-            let sent = http(agent.post(&url).content_type("application/json").send(ROOM));
+            let sent = http(client.post(&url, "application/json", ROOM.as_bytes()));
             (after, sent)
         }
         Model::Mesh => {
             record(&Model::Absent);
-            (
-                Model::Absent,
-                http(agent.delete(&format!("{base}/{id}")).call()),
-            )
+            (Model::Absent, http(client.delete(&format!("{base}/{id}"))))
         }
         Model::Room(room) => {
             let mut next = room.clone();
             let object = |name: &str| format!("{base}/{id}/objects/{name}");
             let json = |url: String, body: Value| {
-                agent
-                    .patch(&url)
-                    .content_type("application/json")
-                    .send(body.to_string())
+                client.patch(&url, "application/json", body.to_string().as_bytes())
             };
             match rng.below(7) {
                 0 => {
@@ -266,12 +261,8 @@ fn write_one(rng: &mut Rng, ledger: &Mutex<Ledger>, agent: &ureq::Agent, addr: &
                         .flatten()
                         .flat_map(|c| c.to_le_bytes())
                         .collect();
-                    let sent = http(
-                        agent
-                            .patch(&object("door"))
-                            .content_type("application/octet-stream")
-                            .send(&bytes[..]),
-                    );
+                    let sent =
+                        http(client.patch(&object("door"), "application/octet-stream", &bytes));
                     (Model::Room(next), sent)
                 }
                 4 => {
@@ -285,15 +276,12 @@ fn write_one(rng: &mut Rng, ledger: &Mutex<Ledger>, agent: &ureq::Agent, addr: &
                 5 => {
                     next.door_yz = [rng.offset(0.5), rng.offset(0.5)];
                     record(&Model::Room(next.clone()));
-                    let sent = stream_move(addr, &id, next.door_yz);
+                    let sent = stream_move(client, &id, next.door_yz);
                     (Model::Room(next), sent)
                 }
                 _ => {
                     record(&Model::Absent);
-                    (
-                        Model::Absent,
-                        http(agent.delete(&format!("{base}/{id}")).call()),
-                    )
+                    (Model::Absent, http(client.delete(&format!("{base}/{id}"))))
                 }
             }
         }
@@ -307,15 +295,14 @@ fn write_one(rng: &mut Rng, ledger: &Mutex<Ledger>, agent: &ureq::Agent, addr: &
 }
 
 /// Reads back what the server holds for `id`.
-fn observe(agent: &ureq::Agent, addr: &str, id: &str) -> Model {
-    let base = format!("http://{addr}/v1/scenes/{id}");
-    let mut response = agent.get(&base).call().expect("GET scene");
-    if response.status() == 404 {
+fn observe(client: &Client, id: &str) -> Model {
+    let base = format!("/v1/scenes/{id}");
+    let response = client.get(&base).expect("GET scene");
+    if response.status == 404 {
         return Model::Absent;
     }
-    assert_eq!(response.status(), 200, "GET {id}");
-    let detail: Value =
-        serde_json::from_str(&response.body_mut().read_to_string().expect("body")).expect("JSON");
+    assert_eq!(response.status, 200, "GET {id}");
+    let detail: Value = serde_json::from_slice(&response.body).expect("JSON");
     let objects = detail["objects"].as_array().expect("objects");
     if objects.len() == 1 {
         return Model::Mesh;
@@ -338,13 +325,14 @@ fn observe(agent: &ureq::Agent, addr: &str, id: &str) -> Model {
         .collect();
     // The door's x from a ray along +x through its middle.
     let ray = serde_json::json!({"rays": [{"origin": [0.5, 1.5 + door[1], 1.0 + door[2]], "direction": [1, 0, 0]}]});
-    let mut hit = agent
-        .post(&format!("{base}/rays"))
-        .content_type("application/json")
-        .send(ray.to_string())
+    let hit = client
+        .post(
+            &format!("{base}/rays"),
+            "application/json",
+            ray.to_string().as_bytes(),
+        )
         .expect("rays");
-    let hits: Value =
-        serde_json::from_str(&hit.body_mut().read_to_string().expect("body")).expect("JSON");
+    let hits: Value = serde_json::from_slice(&hit.body).expect("JSON");
     let hit = &hits["hits"][0];
     assert_eq!(hit["object_name"], "door", "{id}: the ray misses the door");
     let t = hit["t"].as_f64().expect("t") as f32;
@@ -372,13 +360,13 @@ fn same(a: &Model, b: &Model) -> bool {
 
 /// Checks every scene against the ledger and settles the write in flight
 /// to what the server kept.
-fn verify(ledger: &mut Ledger, agent: &ureq::Agent, addr: &str, round: usize) {
+fn verify(ledger: &mut Ledger, client: &Client, round: usize) {
     let in_flight = ledger.in_flight.take();
     let mut ids: Vec<String> = ledger.confirmed.keys().cloned().collect();
     ids.extend(in_flight.iter().map(|(id, _)| id.clone()));
     for id in ids {
         let expected = ledger.confirmed.get(&id).cloned().unwrap_or(Model::Absent);
-        let seen = observe(agent, addr, &id);
+        let seen = observe(client, &id);
         if same(&seen, &expected) {
             continue;
         }
@@ -398,14 +386,13 @@ fn every_acknowledged_write_survives_kill_9_and_restart() {
     let dir = std::env::temp_dir().join(format!("frusta-crash-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let ledger = Arc::new(Mutex::new(Ledger::default()));
-    let agent = agent();
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
     // Nine kill -9 rounds, then a plain stop (SIGTERM), each checked on
     // the next start.
     let rounds = 10;
     for round in 0..rounds {
         let (mut server, addr) = start(&dir);
-        verify(&mut ledger.lock().expect("ledger"), &agent, &addr, round);
+        verify(&mut ledger.lock().expect("ledger"), &client(&addr), round);
         let acknowledged = Arc::new(AtomicUsize::new(0));
         let stop = Arc::new(AtomicBool::new(false));
         let mut writer_rng = Rng(rng.next() | 1);
@@ -417,9 +404,9 @@ fn every_acknowledged_write_survives_kill_9_and_restart() {
                 addr.clone(),
             );
             std::thread::spawn(move || -> Option<String> {
-                let agent = self::agent();
+                let client = client(&addr);
                 while !stop.load(Ordering::Relaxed) {
-                    match write_one(&mut writer_rng, &ledger, &agent, &addr) {
+                    match write_one(&mut writer_rng, &ledger, &client) {
                         Sent::Done => acknowledged.fetch_add(1, Ordering::Relaxed),
                         Sent::Refused(why) => return Some(why),
                         Sent::Cut => return None,
@@ -463,7 +450,7 @@ fn every_acknowledged_write_survives_kill_9_and_restart() {
     }
     let (mut server, addr) = start(&dir);
     let mut ledger = ledger.lock().expect("ledger");
-    verify(&mut ledger, &agent, &addr, rounds);
+    verify(&mut ledger, &client(&addr), rounds);
     let kinds: Vec<&Model> = ledger.confirmed.values().collect();
     assert!(
         kinds
