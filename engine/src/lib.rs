@@ -33,6 +33,7 @@
 
 pub mod acoustics;
 pub mod bvh;
+pub mod collision;
 pub mod error;
 pub mod geometry;
 pub mod query;

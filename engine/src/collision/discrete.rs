@@ -1,0 +1,81 @@
+//! Discrete collision between objects: which triangles of two objects, in
+//! their current poses, intersect.
+
+use std::ops::ControlFlow;
+
+use glam::{DQuat, DVec3, Vec3, Vec3A};
+
+use super::triangle::triangles_intersect;
+use crate::bvh::{Instance, SceneBvh};
+use crate::Result;
+
+/// Two intersecting triangles, as (object, mesh-order triangle) each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Contact {
+    pub a: (u32, u32),
+    pub b: (u32, u32),
+}
+
+/// An instance's object-to-world motion in f64, so that both objects'
+/// triangles meet in one frame with rounding far below the broad phase's
+/// padding.
+fn world_corners(inst: &Instance) -> impl Fn(&[Vec3A; 3]) -> [DVec3; 3] {
+    let q = inst.to_world().rotation;
+    let rotation = DQuat::from_xyzw(q.x.into(), q.y.into(), q.z.into(), q.w.into()).normalize();
+    let shift = inst.to_world().translation.as_dvec3();
+    let identity = inst.is_identity();
+    move |t: &[Vec3A; 3]| {
+        t.map(|p| {
+            let p = Vec3::from(p).as_dvec3();
+            if identity {
+                p
+            } else {
+                rotation * p + shift
+            }
+        })
+    }
+}
+
+/// Every pair of intersecting triangles between objects `a` and `b`,
+/// sorted: the pair walk of their trees finds the candidates, and each is
+/// decided exactly ([`triangles_intersect`]) on the world coordinates.
+pub fn object_contacts(world: &SceneBvh, a: u32, b: u32) -> Result<Vec<Contact>> {
+    let mut contacts = Vec::new();
+    let instances = world.instances();
+    world.overlapping_leaves(a, b, |la, lb| {
+        let (ia, ib) = (&instances[a as usize], &instances[b as usize]);
+        let (to_a, to_b) = (world_corners(ia), world_corners(ib));
+        let (ta, tb) = (ia.bvh().leaf_triangles(), ib.bvh().leaf_triangles());
+        let (ida, idb) = (ia.bvh().prim_ids(), ib.bvh().prim_ids());
+        for x in la.slots() {
+            let wa = to_a(&ta[x]);
+            for y in lb.slots() {
+                if triangles_intersect(&wa, &to_b(&tb[y])) {
+                    contacts.push(Contact {
+                        a: (a, ida[x]),
+                        b: (b, idb[y]),
+                    });
+                }
+            }
+        }
+        ControlFlow::Continue(())
+    })?;
+    contacts.sort_unstable();
+    Ok(contacts)
+}
+
+/// Every pair of intersecting triangles between any two objects of the
+/// world, sorted.
+pub fn world_contacts(world: &SceneBvh) -> Vec<Contact> {
+    let mut pairs = Vec::new();
+    world.overlapping_objects(|a, b| {
+        pairs.push((a, b));
+        ControlFlow::Continue(())
+    });
+    let mut contacts: Vec<Contact> = pairs
+        .into_iter()
+        .flat_map(|(a, b)| object_contacts(world, a, b).expect("objects of this world"))
+        .collect();
+    contacts.sort_unstable();
+    contacts
+}

@@ -1,0 +1,9 @@
+//! Collision queries on the world's hierarchies: the pair walk of
+//! [`crate::bvh::traverse::pair`] for the broad phase, exact
+//! triangle–triangle decisions for the narrow one.
+
+mod discrete;
+mod triangle;
+
+pub use discrete::{object_contacts, world_contacts, Contact};
+pub use triangle::triangles_intersect;
