@@ -4,7 +4,9 @@
 use std::collections::BTreeSet;
 
 use frusta_engine::bvh::{BuildOptions, SceneBvh};
-use frusta_engine::collision::{object_contacts, triangles_intersect, world_contacts, Contact};
+use frusta_engine::collision::{
+    object_contacts, self_contacts, triangles_intersect, world_contacts, Contact,
+};
 use frusta_engine::geometry::{shapes, RigidTransform, TriangleMesh};
 use frusta_engine::scene::{Material, Scene, SceneObject};
 use glam::{DQuat, DVec3, Quat, Vec3};
@@ -110,4 +112,64 @@ fn world_contacts_are_every_intersecting_pair_brute_force_finds() {
     assert_eq!(found, brute);
     assert!(object_contacts(&world, 1, 5).unwrap().is_empty());
     assert!(object_contacts(&world, 1, 9).is_err());
+}
+
+/// One mesh of two interpenetrating balls and a fold: self-contacts are
+/// every intersecting pair of triangles that share no corner, brute force.
+#[test]
+fn self_contacts_are_every_intersecting_pair_of_non_adjacent_triangles() {
+    let ball = shapes::icosphere(1.0, 2);
+    let mut positions = ball.positions().to_vec();
+    let mut triangles = ball.triangles().to_vec();
+    let n = positions.len() as u32;
+    positions.extend(
+        ball.positions()
+            .iter()
+            .map(|p| *p * 0.7 + Vec3::new(0.9, 0.3, 0.0)),
+    );
+    triangles.extend(ball.triangles().iter().map(|t| t.map(|v| v + n)));
+    let mesh = TriangleMesh::new(positions, triangles).unwrap();
+    let spin = Quat::from_axis_angle(Vec3::new(1.0, 0.2, 0.0).normalize(), 1.3);
+    let scene = Scene {
+        materials: vec![Material::uniform("m", 0.1).unwrap()],
+        objects: vec![
+            object(
+                "pair",
+                mesh.clone(),
+                RigidTransform::new(spin, Vec3::splat(3.0)).unwrap(),
+            ),
+            object(
+                "single",
+                shapes::icosphere(1.0, 3),
+                RigidTransform::IDENTITY,
+            ),
+        ],
+    };
+    let world = SceneBvh::build(&scene, &BuildOptions::default());
+    let p = mesh.positions();
+    let tris: Vec<[DVec3; 3]> = mesh
+        .triangles()
+        .iter()
+        .map(|t| t.map(|v| p[v as usize].as_dvec3()))
+        .collect();
+    let mut brute = BTreeSet::new();
+    for x in 0..tris.len() {
+        for y in x + 1..tris.len() {
+            let shared = tris[x].iter().any(|c| tris[y].contains(c));
+            if !shared && triangles_intersect(&tris[x], &tris[y]) {
+                brute.insert(Contact {
+                    a: (0, x as u32),
+                    b: (0, y as u32),
+                });
+            }
+        }
+    }
+    assert!(brute.len() > 20, "{}", brute.len());
+    let found: BTreeSet<Contact> = self_contacts(&world, 0).unwrap().into_iter().collect();
+    assert_eq!(found, brute);
+    assert!(
+        self_contacts(&world, 1).unwrap().is_empty(),
+        "a closed ball does not cross itself"
+    );
+    assert!(self_contacts(&world, 2).is_err());
 }

@@ -1,11 +1,12 @@
-//! Discrete collision between objects: which triangles of two objects, in
-//! their current poses, intersect.
+//! Discrete collision: which triangles of two objects, in their current
+//! poses, intersect, and which non-adjacent triangles of one object do.
 
 use std::ops::ControlFlow;
 
 use glam::{DQuat, DVec3, Vec3, Vec3A};
 
 use super::triangle::triangles_intersect;
+use crate::bvh::traverse::pair::self_overlapping_leaves;
 use crate::bvh::{Instance, SceneBvh};
 use crate::Result;
 
@@ -78,4 +79,51 @@ pub fn world_contacts(world: &SceneBvh) -> Vec<Contact> {
         .collect();
     contacts.sort_unstable();
     contacts
+}
+
+/// Every pair of intersecting triangles of one object that share no corner
+/// (triangles meeting at a shared vertex or edge touch by construction),
+/// sorted, `a` before `b`. Adjacency is by corner position, so welded and
+/// unwelded meshes are treated alike. Decided in the object's own frame,
+/// where the coordinates are exact: self-intersection does not change when
+/// an object moves rigidly.
+pub fn self_contacts(world: &SceneBvh, object: u32) -> Result<Vec<Contact>> {
+    let count = world.object_count();
+    let inst = world
+        .instances()
+        .get(object as usize)
+        .ok_or_else(|| crate::Error::UnknownObject(format!("#{object} (the scene has {count})")))?;
+    let tris = inst.bvh().leaf_triangles();
+    let ids = inst.bvh().prim_ids();
+    let exact = |t: &[Vec3A; 3]| t.map(|p| Vec3::from(p).as_dvec3());
+    let adjacent = |x: &[Vec3A; 3], y: &[Vec3A; 3]| x.iter().any(|p| y.contains(p));
+    let mut contacts = Vec::new();
+    let mut test = |x: usize, y: usize| {
+        if !adjacent(&tris[x], &tris[y]) && triangles_intersect(&exact(&tris[x]), &exact(&tris[y]))
+        {
+            let (p, q) = (ids[x].min(ids[y]), ids[x].max(ids[y]));
+            contacts.push(Contact {
+                a: (object, p),
+                b: (object, q),
+            });
+        }
+    };
+    self_overlapping_leaves(inst.bvh().wide(), |la, lb| {
+        if la == lb {
+            for x in la.slots() {
+                for y in x + 1..la.slots().end {
+                    test(x, y);
+                }
+            }
+        } else {
+            for x in la.slots() {
+                for y in lb.slots() {
+                    test(x, y);
+                }
+            }
+        }
+        ControlFlow::Continue(())
+    });
+    contacts.sort_unstable();
+    Ok(contacts)
 }

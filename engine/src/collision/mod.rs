@@ -5,5 +5,5 @@
 mod discrete;
 mod triangle;
 
-pub use discrete::{object_contacts, world_contacts, Contact};
+pub use discrete::{object_contacts, self_contacts, world_contacts, Contact};
 pub use triangle::triangles_intersect;
