@@ -5,7 +5,8 @@ use std::collections::BTreeSet;
 
 use frusta_engine::bvh::{BuildOptions, SceneBvh};
 use frusta_engine::collision::{
-    object_contacts, self_contacts, triangles_intersect, world_contacts, Contact,
+    object_contacts, object_proximity, self_contacts, triangle_distance, triangles_intersect,
+    world_contacts, Contact,
 };
 use frusta_engine::geometry::{shapes, RigidTransform, TriangleMesh};
 use frusta_engine::scene::{Material, Scene, SceneObject};
@@ -172,4 +173,36 @@ fn self_contacts_are_every_intersecting_pair_of_non_adjacent_triangles() {
         "a closed ball does not cross itself"
     );
     assert!(self_contacts(&world, 2).is_err());
+}
+
+/// Proximity against brute force: the lone ball is 1.5 m from three walls
+/// of the room; every triangle pair within 1.6 m (and none beyond) is
+/// reported with its distance, and a negative or NaN distance is refused.
+#[test]
+fn proximity_reports_every_pair_within_the_distance() {
+    let scene = scene();
+    let world = SceneBvh::build(&scene, &BuildOptions::default());
+    let (room, lone) = (
+        world_triangles(&scene.objects[0]),
+        world_triangles(&scene.objects[5]),
+    );
+    for distance in [1.49, 1.6, 2.5] {
+        let mut brute = BTreeSet::new();
+        for (x, ta) in room.iter().enumerate() {
+            for (y, tb) in lone.iter().enumerate() {
+                if triangle_distance(ta, tb) <= distance {
+                    brute.insert((x as u32, y as u32));
+                }
+            }
+        }
+        let near = object_proximity(&world, 0, 5, distance).unwrap();
+        let found: BTreeSet<(u32, u32)> = near.iter().map(|(c, _)| (c.a.1, c.b.1)).collect();
+        assert_eq!(found, brute, "within {distance}");
+        assert_eq!(brute.is_empty(), distance < 1.5, "within {distance}");
+        for (c, d) in &near {
+            assert!(*d <= distance && *d >= 1.5 - 1e-6, "{c:?} at {d}");
+        }
+    }
+    assert!(object_proximity(&world, 0, 5, -1.0).is_err());
+    assert!(object_proximity(&world, 0, 5, f64::NAN).is_err());
 }

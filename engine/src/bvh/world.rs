@@ -7,7 +7,7 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::traverse::pair::{overlapping_leaves, Leaf};
+use super::traverse::pair::{leaves_within, Leaf};
 use super::traverse::{Flow, NodeTest, OverlapTest};
 use crate::bvh::{BuildOptions, Bvh, MeshBvh, UpdateReport};
 use crate::geometry::{Aabb, RigidTransform, TriangleMesh};
@@ -192,11 +192,24 @@ impl SceneBvh {
     /// Calls `visit(leaf of a, leaf of b)` for every pair of leaves of
     /// objects `a` and `b` whose boxes overlap in the world (leaf slots of
     /// each object's tree; its `prim_ids` name the triangles): the pair walk
-    /// of [`overlapping_leaves`] with `b`'s tree moved into `a`'s frame.
+    /// of [`super::traverse::pair::overlapping_leaves`] with `b`'s tree
+    /// moved into `a`'s frame.
     pub fn overlapping_leaves(
         &self,
         a: u32,
         b: u32,
+        visit: impl FnMut(Leaf, Leaf) -> Flow,
+    ) -> Result<()> {
+        self.leaves_within(a, b, 0.0, visit)
+    }
+
+    /// [`Self::overlapping_leaves`] for leaves whose boxes come closer
+    /// than `distance`: the broad phase of proximity queries.
+    pub fn leaves_within(
+        &self,
+        a: u32,
+        b: u32,
+        distance: f32,
         visit: impl FnMut(Leaf, Leaf) -> Flow,
     ) -> Result<()> {
         let count = self.instances.len();
@@ -207,7 +220,13 @@ impl SceneBvh {
         };
         let (ia, ib) = (get(a)?, get(b)?);
         let b_to_a = (!ia.identity || !ib.identity).then(|| ib.to_world.then(&ia.to_object));
-        overlapping_leaves(ia.bvh.wide(), ib.bvh.wide(), b_to_a.as_ref(), visit);
+        leaves_within(
+            ia.bvh.wide(),
+            ib.bvh.wide(),
+            b_to_a.as_ref(),
+            distance,
+            visit,
+        );
         Ok(())
     }
 

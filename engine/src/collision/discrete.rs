@@ -1,10 +1,12 @@
 //! Discrete collision: which triangles of two objects, in their current
-//! poses, intersect, and which non-adjacent triangles of one object do.
+//! poses, intersect or come within a distance, and which non-adjacent
+//! triangles of one object intersect.
 
 use std::ops::ControlFlow;
 
 use glam::{DQuat, DVec3, Vec3, Vec3A};
 
+use super::distance::triangle_distance;
 use super::triangle::triangles_intersect;
 use crate::bvh::traverse::pair::self_overlapping_leaves;
 use crate::bvh::{Instance, SceneBvh};
@@ -126,4 +128,47 @@ pub fn self_contacts(world: &SceneBvh, object: u32) -> Result<Vec<Contact>> {
     });
     contacts.sort_unstable();
     Ok(contacts)
+}
+
+/// Every pair of triangles of objects `a` and `b` at most `distance`
+/// apart in the world, with their distance (0 where they intersect),
+/// sorted: the contacts a solver needs before objects touch.
+pub fn object_proximity(
+    world: &SceneBvh,
+    a: u32,
+    b: u32,
+    distance: f64,
+) -> Result<Vec<(Contact, f64)>> {
+    if !(distance >= 0.0 && distance.is_finite()) {
+        return Err(crate::Error::InvalidOption {
+            field: "distance".into(),
+            reason: format!("{distance} must be a finite distance of at least 0"),
+        });
+    }
+    let mut near = Vec::new();
+    let instances = world.instances();
+    // The broad phase in f32, grown by rounding of the distance.
+    let margin = (distance * (1.0 + 1e-6)) as f32 * (1.0 + 4.0 * f32::EPSILON);
+    world.leaves_within(a, b, margin, |la, lb| {
+        let (ia, ib) = (&instances[a as usize], &instances[b as usize]);
+        let (to_a, to_b) = (world_corners(ia), world_corners(ib));
+        let (ta, tb) = (ia.bvh().leaf_triangles(), ib.bvh().leaf_triangles());
+        let (ida, idb) = (ia.bvh().prim_ids(), ib.bvh().prim_ids());
+        for x in la.slots() {
+            let wa = to_a(&ta[x]);
+            for y in lb.slots() {
+                let d = triangle_distance(&wa, &to_b(&tb[y]));
+                if d <= distance {
+                    let contact = Contact {
+                        a: (a, ida[x]),
+                        b: (b, idb[y]),
+                    };
+                    near.push((contact, d));
+                }
+            }
+        }
+        ControlFlow::Continue(())
+    })?;
+    near.sort_unstable_by_key(|n| n.0);
+    Ok(near)
 }

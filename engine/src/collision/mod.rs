@@ -3,7 +3,9 @@
 //! triangle–triangle decisions for the narrow one.
 
 mod discrete;
+mod distance;
 mod triangle;
 
-pub use discrete::{object_contacts, self_contacts, world_contacts, Contact};
+pub use discrete::{object_contacts, object_proximity, self_contacts, world_contacts, Contact};
+pub use distance::triangle_distance;
 pub use triangle::triangles_intersect;

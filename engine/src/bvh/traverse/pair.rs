@@ -6,6 +6,8 @@
 //! nodes. The walk descends both trees at once and stops at pairs of
 //! leaves, which it hands to the caller for the exact primitive tests.
 
+use glam::Vec3A;
+
 use super::Flow;
 use crate::bvh::wide::{Bvh4, Node4};
 use crate::geometry::{Aabb, RigidTransform};
@@ -72,6 +74,18 @@ pub fn overlapping_leaves(
     a: &Bvh4,
     b: &Bvh4,
     b_to_a: Option<&RigidTransform>,
+    visit: impl FnMut(Leaf, Leaf) -> Flow,
+) {
+    leaves_within(a, b, b_to_a, 0.0, visit);
+}
+
+/// [`overlapping_leaves`] for boxes closer than `margin` (each of `b`'s
+/// boxes grown by it): the broad phase of proximity queries.
+pub fn leaves_within(
+    a: &Bvh4,
+    b: &Bvh4,
+    b_to_a: Option<&RigidTransform>,
+    margin: f32,
     mut visit: impl FnMut(Leaf, Leaf) -> Flow,
 ) {
     if a.nodes.is_empty() || b.nodes.is_empty() {
@@ -82,10 +96,11 @@ pub fn overlapping_leaves(
     while let Some((sa, sb)) = stack.pop() {
         let ka = children(a, sa, &mut ca);
         let kb = children(b, sb, &mut cb);
-        if let Some(t) = b_to_a {
-            for (bx, _) in &mut cb[..kb] {
+        for (bx, _) in &mut cb[..kb] {
+            if let Some(t) = b_to_a {
                 *bx = bx.transformed(t);
             }
+            *bx = Aabb::new(bx.min - Vec3A::splat(margin), bx.max + Vec3A::splat(margin));
         }
         for &(box_a, xa) in &ca[..ka] {
             for &(box_b, xb) in &cb[..kb] {
@@ -151,7 +166,7 @@ mod tests {
     use std::collections::BTreeSet;
     use std::ops::ControlFlow;
 
-    use glam::{DQuat, DVec3, Quat, Vec3, Vec3A};
+    use glam::{DQuat, DVec3, Quat, Vec3};
 
     use super::*;
     use crate::bvh::{BuildOptions, Bvh};
