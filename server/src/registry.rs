@@ -35,8 +35,6 @@ pub struct SceneEntry {
     /// The objects' names in index order; objects are never added or
     /// removed, so these are read without the scene's lock.
     pub object_names: Vec<String>,
-    /// The objects' vertex counts, as fixed as their names.
-    pub object_vertices: Vec<usize>,
     live: RwLock<LiveScene>,
     /// Streams watch this to recompute when someone else edits the scene;
     /// it closes when the scene is deleted.
@@ -74,12 +72,12 @@ pub struct ObjectEdit {
 }
 
 impl ObjectEdit {
-    /// What can be checked without the scene's lock: finite values, a
-    /// rotation that can be normalised, the object's vertex count. A
-    /// stream checks each update on arrival, so one bad update cannot
-    /// sink the others merged with it; only "every triangle degenerate"
-    /// needs the mesh and waits for the edit itself.
-    pub fn check(&self, vertex_count: usize) -> Result<(), ApiError> {
+    /// Everything an edit of the object `current` can fail on: finite
+    /// values, a rotation that can be normalised, the vertex count, a new
+    /// mesh that would load. A stream checks each update on arrival, so one
+    /// bad update cannot sink the others merged with it.
+    pub fn check(&self, current: &TriangleMesh) -> Result<(), ApiError> {
+        let vertex_count = current.vertex_count();
         let rotation = self
             .rotation
             .map_or(glam::Quat::IDENTITY, glam::Quat::from_array);
@@ -94,9 +92,11 @@ impl ObjectEdit {
                     },
                 ));
             }
-            // Finite and in range, as the mesh will check: a stream merges
-            // this edit with others, which a bad one would sink.
-            frusta_engine::geometry::check_positions(vertices).map_err(ApiError::from_engine)?;
+            // Everything the new mesh will be checked for (finite, in
+            // range, not all degenerate): a stream merges this edit with
+            // others, which a bad one would sink.
+            frusta_engine::geometry::check_mesh(vertices, current.triangles())
+                .map_err(ApiError::from_engine)?;
         }
         Ok(())
     }
@@ -288,11 +288,6 @@ impl Registry {
             id: id.clone(),
             meta,
             object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
-            object_vertices: scene
-                .objects
-                .iter()
-                .map(|o| o.mesh.vertex_count())
-                .collect(),
             live: RwLock::new(LiveScene {
                 scene,
                 acoustic,
@@ -468,7 +463,7 @@ fn prepare(
         )));
     };
     // The checks a stream makes on arrival, then what needs the object.
-    edit.check(current.mesh.positions().len())?;
+    edit.check(&current.mesh)?;
     let transform = if edit.rotation.is_some() || edit.translation.is_some() {
         let rotation = edit
             .rotation

@@ -28,31 +28,11 @@ pub struct TriangleMesh {
 impl TriangleMesh {
     /// Checks the mesh and takes ownership of it.
     pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Self> {
-        if triangles.is_empty() {
-            return Err(Error::EmptyMesh);
-        }
-        if positions.is_empty() {
-            return Err(Error::NoVertices);
-        }
-        check_positions(&positions)?;
-        let n = positions.len();
-        for (t, tri) in triangles.iter().enumerate() {
-            if let Some(&index) = tri.iter().find(|&&i| i as usize >= n) {
-                return Err(Error::IndexOutOfRange {
-                    triangle: t,
-                    index,
-                    vertex_count: n,
-                });
-            }
-        }
-        let mesh = Self {
+        check_mesh(&positions, &triangles)?;
+        Ok(Self {
             positions,
             triangles,
-        };
-        if mesh.degenerate_count() == mesh.triangles.len() {
-            return Err(Error::AllTrianglesDegenerate);
-        }
-        Ok(mesh)
+        })
     }
 
     pub fn positions(&self) -> &[Vec3] {
@@ -117,6 +97,37 @@ impl TriangleMesh {
         self.positions = positions;
         Ok(())
     }
+}
+
+/// The checks of [`TriangleMesh::new`], on borrowed data: some triangles
+/// and vertices, positions finite and in range, indices in range, and not
+/// every triangle of zero area.
+pub fn check_mesh(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<()> {
+    if triangles.is_empty() {
+        return Err(Error::EmptyMesh);
+    }
+    if positions.is_empty() {
+        return Err(Error::NoVertices);
+    }
+    check_positions(positions)?;
+    let n = positions.len();
+    for (t, tri) in triangles.iter().enumerate() {
+        if let Some(&index) = tri.iter().find(|&&i| i as usize >= n) {
+            return Err(Error::IndexOutOfRange {
+                triangle: t,
+                index,
+                vertex_count: n,
+            });
+        }
+    }
+    let has_area = |&[a, b, c]: &[u32; 3]| {
+        let [a, b, c] = [a, b, c].map(|i| Vec3A::from(positions[i as usize]));
+        (b - a).cross(c - a) != Vec3A::ZERO
+    };
+    if !triangles.iter().any(has_area) {
+        return Err(Error::AllTrianglesDegenerate);
+    }
+    Ok(())
 }
 
 /// Checks vertex positions as [`TriangleMesh::new`] does: finite and at

@@ -9,7 +9,7 @@ mod transform;
 pub mod triangle;
 
 pub use aabb::Aabb;
-pub use mesh::{check_positions, TriangleMesh, MAX_COORDINATE};
+pub use mesh::{check_mesh, check_positions, TriangleMesh, MAX_COORDINATE};
 pub use ray::{trace_batch, Ray};
 pub use transform::RigidTransform;
 pub use triangle::{TriangleHit, WatertightRay};

@@ -223,7 +223,7 @@ impl Stream {
             self.caller.may_change(&self.entry.meta)?;
             let index = object_index(&self.entry, &m.object)?;
             let edit = edit_of(&m.patch)?;
-            edit.check(self.entry.object_vertices[index])?;
+            edit.check(&self.entry.read().scene.objects[index].mesh)?;
             edits.push((index, edit));
         }
         let request = match (sources, listeners) {

@@ -58,7 +58,9 @@ impl Move {
         let vertices_ok = self.vertices.as_ref().is_none_or(|v| {
             // A mesh's coordinates stay within the engine's range.
             let in_range = |x: &f64| x.abs() <= f64::from(MAX_COORDINATE);
-            self.index == Some(1) && v.len() == 4 && v.iter().flatten().all(in_range)
+            // Four corners at one point: no triangle has area.
+            let collapsed = v.iter().all(|p| *p == v[0]);
+            self.index == Some(1) && v.len() == 4 && v.iter().flatten().all(in_range) && !collapsed
         });
         let something =
             self.rotation.is_some() || self.translation.is_some() || self.vertices.is_some();
@@ -111,6 +113,7 @@ fn object_move() -> impl Strategy<Value = Move> {
         4 => prop::array::uniform3(component())
             .prop_map(move |d| panel.iter().map(|p| [p[0] + d[0], p[1] + d[1], p[2] + d[2]]).collect()),
         1 => prop::collection::vec(prop::array::uniform3(-5.0..5.0f64), 0..8),
+        1 => prop::array::uniform3(-5.0..5.0f64).prop_map(|p| vec![p; 4]),
     ];
     (
         names,
