@@ -39,29 +39,49 @@ fn world_corners(inst: &Instance) -> impl Fn(&[Vec3A; 3]) -> [DVec3; 3] {
     }
 }
 
+/// Calls `visit(contact, triangle of a, triangle of b)` with world
+/// coordinates for every candidate pair of the pair walk of `a` and `b`
+/// (boxes grown by `margin`). A leaf of `b` is moved to the world once per
+/// leaf pair, not once per triangle of `a` it is paired with.
+fn for_each_candidate(
+    world: &SceneBvh,
+    a: u32,
+    b: u32,
+    margin: f32,
+    mut visit: impl FnMut(Contact, &[DVec3; 3], &[DVec3; 3]),
+) -> Result<()> {
+    let instances = world.instances();
+    let mut moved_b: Vec<[DVec3; 3]> = Vec::new();
+    world.leaves_within(a, b, margin, |la, lb| {
+        let (ia, ib) = (&instances[a as usize], &instances[b as usize]);
+        let (to_a, to_b) = (world_corners(ia), world_corners(ib));
+        let (ta, tb) = (ia.bvh().leaf_triangles(), ib.bvh().leaf_triangles());
+        let (ida, idb) = (ia.bvh().prim_ids(), ib.bvh().prim_ids());
+        moved_b.clear();
+        moved_b.extend(tb[lb.slots()].iter().map(&to_b));
+        for x in la.slots() {
+            let wa = to_a(&ta[x]);
+            for (y, wb) in lb.slots().zip(&moved_b) {
+                let contact = Contact {
+                    a: (a, ida[x]),
+                    b: (b, idb[y]),
+                };
+                visit(contact, &wa, wb);
+            }
+        }
+        ControlFlow::Continue(())
+    })
+}
+
 /// Every pair of intersecting triangles between objects `a` and `b`,
 /// sorted: the pair walk of their trees finds the candidates, and each is
 /// decided exactly ([`triangles_intersect`]) on the world coordinates.
 pub fn object_contacts(world: &SceneBvh, a: u32, b: u32) -> Result<Vec<Contact>> {
     let mut contacts = Vec::new();
-    let instances = world.instances();
-    world.overlapping_leaves(a, b, |la, lb| {
-        let (ia, ib) = (&instances[a as usize], &instances[b as usize]);
-        let (to_a, to_b) = (world_corners(ia), world_corners(ib));
-        let (ta, tb) = (ia.bvh().leaf_triangles(), ib.bvh().leaf_triangles());
-        let (ida, idb) = (ia.bvh().prim_ids(), ib.bvh().prim_ids());
-        for x in la.slots() {
-            let wa = to_a(&ta[x]);
-            for y in lb.slots() {
-                if triangles_intersect(&wa, &to_b(&tb[y])) {
-                    contacts.push(Contact {
-                        a: (a, ida[x]),
-                        b: (b, idb[y]),
-                    });
-                }
-            }
+    for_each_candidate(world, a, b, 0.0, |contact, wa, wb| {
+        if triangles_intersect(wa, wb) {
+            contacts.push(contact);
         }
-        ControlFlow::Continue(())
     })?;
     contacts.sort_unstable();
     Ok(contacts)
@@ -146,28 +166,13 @@ pub fn object_proximity(
         });
     }
     let mut near = Vec::new();
-    let instances = world.instances();
     // The broad phase in f32, grown by rounding of the distance.
     let margin = (distance * (1.0 + 1e-6)) as f32 * (1.0 + 4.0 * f32::EPSILON);
-    world.leaves_within(a, b, margin, |la, lb| {
-        let (ia, ib) = (&instances[a as usize], &instances[b as usize]);
-        let (to_a, to_b) = (world_corners(ia), world_corners(ib));
-        let (ta, tb) = (ia.bvh().leaf_triangles(), ib.bvh().leaf_triangles());
-        let (ida, idb) = (ia.bvh().prim_ids(), ib.bvh().prim_ids());
-        for x in la.slots() {
-            let wa = to_a(&ta[x]);
-            for y in lb.slots() {
-                let d = triangle_distance(&wa, &to_b(&tb[y]));
-                if d <= distance {
-                    let contact = Contact {
-                        a: (a, ida[x]),
-                        b: (b, idb[y]),
-                    };
-                    near.push((contact, d));
-                }
-            }
+    for_each_candidate(world, a, b, margin, |contact, wa, wb| {
+        let d = triangle_distance(wa, wb);
+        if d <= distance {
+            near.push((contact, d));
         }
-        ControlFlow::Continue(())
     })?;
     near.sort_unstable_by_key(|n| n.0);
     Ok(near)
