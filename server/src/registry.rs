@@ -10,7 +10,7 @@ use frusta_api::objects::{EditAction, EditReport};
 use frusta_engine::acoustics::AcousticScene;
 use frusta_engine::bvh::{UpdateReport, DEFAULT_REBUILD_THRESHOLD};
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
-use frusta_engine::scene::{Material, Scene, MAX_MATERIALS};
+use frusta_engine::scene::{check_material_table, Material, Scene};
 use glam::Vec3;
 use tokio::sync::watch;
 
@@ -430,15 +430,10 @@ impl Registry {
                 }
             }
         }
-        if scene.materials.len() > MAX_MATERIALS {
-            return Err(ApiError::LimitExceeded(format!(
-                "the edit would give the scene {} materials; it holds at most {MAX_MATERIALS}",
-                scene.materials.len()
-            )));
-        }
-        for m in &scene.materials {
-            m.clone().validated().map_err(ApiError::from_engine)?;
-        }
+        // Checked as the engine and a restart will check it, before it is
+        // stored.
+        check_material_table(live.scene.materials.len(), &scene.materials)
+            .map_err(ApiError::from_engine)?;
         self.store
             .put_materials(&entry.id, &scene.materials)
             .map_err(ApiError::storage)?;
@@ -508,14 +503,8 @@ fn restore(s: StoredScene) -> frusta_engine::Result<(SceneMeta, Scene)> {
         tracing::error!(scene = %s.id, object, error = %e, "stored object edit does not load; skipped");
     };
     if let Some(materials) = s.materials {
-        let valid: frusta_engine::Result<Vec<Material>> =
-            materials.into_iter().map(Material::validated).collect();
-        match valid {
-            // Triangles refer to every material of the document's table.
-            Ok(m) if m.len() >= scene.materials.len() => scene.materials = m,
-            Ok(m) => {
-                tracing::error!(scene = %s.id, stored = m.len(), "stored material table is shorter than the document's; skipped")
-            }
+        match check_material_table(scene.materials.len(), &materials) {
+            Ok(()) => scene.materials = materials,
             Err(e) => {
                 tracing::error!(scene = %s.id, error = %e, "stored material table does not load; skipped")
             }

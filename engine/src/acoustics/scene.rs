@@ -13,7 +13,7 @@ use super::tracer::{trace, trace_beams, TraceInput, TraceOptions, TraceStats};
 use crate::bvh::{BuildOptions, UpdateReport};
 use crate::geometry::{RigidTransform, TriangleMesh};
 use crate::query::SceneBvh;
-use crate::scene::{Material, MaterialId, Scene, MAX_MATERIALS};
+use crate::scene::{check_material_table, Material, MaterialId, Scene};
 use crate::{Error, Result};
 
 /// What sound propagation reads of a scene.
@@ -94,21 +94,11 @@ impl AcousticScene {
         &self.object_names
     }
 
-    /// Replaces the material table. Triangles keep their indices, so the
-    /// table may grow or change coefficients but not shrink.
+    /// Replaces the material table, checked by [`check_material_table`].
+    /// Triangles keep their indices, so the table may grow or change
+    /// coefficients but not shrink.
     pub fn set_materials(&mut self, materials: Vec<Material>) -> Result<()> {
-        if materials.len() < self.materials.len() {
-            return Err(Error::MaterialTableShrinks {
-                current: self.materials.len(),
-                given: materials.len(),
-            });
-        }
-        if materials.len() > MAX_MATERIALS {
-            return Err(Error::LimitExceeded(format!(
-                "{} materials; a scene holds at most {MAX_MATERIALS}",
-                materials.len()
-            )));
-        }
+        check_material_table(self.materials.len(), &materials)?;
         self.materials = materials;
         self.changed(Ok(()))
     }

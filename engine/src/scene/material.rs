@@ -46,6 +46,12 @@ impl Material {
     /// Checks that every coefficient is a finite fraction and that absorption
     /// and transmission together do not exceed one.
     pub fn validated(self) -> Result<Self> {
+        self.check()?;
+        Ok(self)
+    }
+
+    /// [`Self::validated`] without taking the material.
+    pub fn check(&self) -> Result<()> {
         let fail = |reason: String| Error::InvalidMaterial {
             name: self.name.clone(),
             reason,
@@ -78,7 +84,7 @@ impl Material {
                 )));
             }
         }
-        Ok(self)
+        Ok(())
     }
 
     /// Whether any band lets sound through: scenes with no transmitting
@@ -88,9 +94,53 @@ impl Material {
     }
 }
 
+/// Checks a table that replaces one of `current` materials: every
+/// material valid, none dropped (triangles refer to every one), at most
+/// [`MAX_MATERIALS`]. What a material edit must pass before it is stored,
+/// and what a stored table must pass when it is loaded again.
+pub fn check_material_table(current: usize, table: &[Material]) -> Result<()> {
+    if table.len() < current {
+        return Err(Error::MaterialTableShrinks {
+            current,
+            given: table.len(),
+        });
+    }
+    if table.len() > MAX_MATERIALS {
+        return Err(Error::LimitExceeded(format!(
+            "{} materials; a scene holds at most {MAX_MATERIALS}",
+            table.len()
+        )));
+    }
+    table.iter().try_for_each(Material::check)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_replacement_table_may_grow_but_not_shrink_overflow_or_hold_bad_coefficients() {
+        let m = |name: &str| Material::uniform(name, 0.2).unwrap();
+        assert!(check_material_table(2, &[m("a"), m("b"), m("c")]).is_ok());
+        assert!(matches!(
+            check_material_table(2, &[m("a")]),
+            Err(Error::MaterialTableShrinks {
+                current: 2,
+                given: 1
+            })
+        ));
+        let many = vec![m("x"); MAX_MATERIALS + 1];
+        assert!(matches!(
+            check_material_table(0, &many),
+            Err(Error::LimitExceeded(_))
+        ));
+        let mut bad = m("bad");
+        bad.absorption[3] = f32::NAN;
+        assert!(matches!(
+            check_material_table(0, &[bad]),
+            Err(Error::InvalidMaterial { .. })
+        ));
+    }
 
     #[test]
     fn rejects_coefficients_outside_unit_range() {

@@ -13,6 +13,8 @@ mod raw_mesh;
 
 pub use format::{FileMesh, InlineMesh, MaterialSpec, MeshSpec, ObjectSpec, SceneDocument};
 pub use library::{builtin_material, builtin_materials};
-pub use material::{Bands, Material, MaterialId, BAND_COUNT, MAX_MATERIALS, OCTAVE_BANDS_HZ};
+pub use material::{
+    check_material_table, Bands, Material, MaterialId, BAND_COUNT, MAX_MATERIALS, OCTAVE_BANDS_HZ,
+};
 pub use object::{Scene, SceneObject};
 pub use raw_mesh::RawMesh;
