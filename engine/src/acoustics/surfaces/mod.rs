@@ -226,8 +226,12 @@ impl Surfaces {
     /// containing `p` (a point on the group's plane) to within `tol` metres:
     /// for points on an edge between planes, where a ray query reports
     /// either side. Candidates come from a box query on `bvh` around `p`,
-    /// grown by the plane tolerance of the grouping (coplanar to within
-    /// 1e-5 of the scene's size), so no triangle the test accepts is missed.
+    /// grown by `tol` plus the plane tolerance of the grouping (coplanar to
+    /// within about 1e-5 of the scene's size). The edge test accepts points
+    /// up to `tol / sin(angle / 2)` beyond a corner of angle `angle`, so at
+    /// corners sharper than about 6 degrees a point the old linear scan
+    /// accepted can fall outside the box; such a point is then matched to
+    /// another triangle of the group or to none, and the path is refused.
     pub fn triangle_at(
         &self,
         bvh: &SceneBvh,
