@@ -15,6 +15,7 @@
 //! deforming one object by its size (see `update`).
 
 mod bvh_bench;
+mod ccd;
 mod mesh;
 mod propagation;
 mod provenance;
@@ -53,6 +54,9 @@ enum Command {
     /// Moving and deforming one object of a hall: the cost by the object's
     /// size.
     Update(update::Args),
+    /// Continuous vertex–face and edge–edge tests on the sample queries of
+    /// Wang et al. 2021: false negatives, false positives, time per query.
+    Ccd(ccd::Args),
 }
 
 fn main() -> ExitCode {
@@ -63,6 +67,7 @@ fn main() -> ExitCode {
         Command::Serve(args) => serve::run(args),
         Command::Soak(args) => soak::run(args),
         Command::Update(args) => update::run(args),
+        Command::Ccd(args) => ccd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -4,12 +4,12 @@
 
 use std::ops::ControlFlow;
 
-use glam::{DQuat, DVec3, Vec3, Vec3A};
+use glam::{DVec3, Vec3, Vec3A};
 
 use super::distance::triangle_distance;
 use super::triangle::triangles_intersect;
-use crate::bvh::traverse::pair::self_overlapping_leaves;
-use crate::bvh::{Instance, SceneBvh};
+use super::{for_each_self_candidate, world_corners};
+use crate::bvh::SceneBvh;
 use crate::Result;
 
 /// Two intersecting triangles, as (object, mesh-order triangle) each.
@@ -17,26 +17,6 @@ use crate::Result;
 pub struct Contact {
     pub a: (u32, u32),
     pub b: (u32, u32),
-}
-
-/// An instance's object-to-world motion in f64, so that both objects'
-/// triangles meet in one frame with rounding far below the broad phase's
-/// padding.
-fn world_corners(inst: &Instance) -> impl Fn(&[Vec3A; 3]) -> [DVec3; 3] {
-    let q = inst.to_world().rotation;
-    let rotation = DQuat::from_xyzw(q.x.into(), q.y.into(), q.z.into(), q.w.into()).normalize();
-    let shift = inst.to_world().translation.as_dvec3();
-    let identity = inst.is_identity();
-    move |t: &[Vec3A; 3]| {
-        t.map(|p| {
-            let p = Vec3::from(p).as_dvec3();
-            if identity {
-                p
-            } else {
-                rotation * p + shift
-            }
-        })
-    }
 }
 
 /// Calls `visit(contact, triangle of a, triangle of b)` with world
@@ -54,7 +34,7 @@ fn for_each_candidate(
     let mut moved_b: Vec<[DVec3; 3]> = Vec::new();
     world.leaves_within(a, b, margin, |la, lb| {
         let (ia, ib) = (&instances[a as usize], &instances[b as usize]);
-        let (to_a, to_b) = (world_corners(ia), world_corners(ib));
+        let (to_a, to_b) = (world_corners(ia.to_world()), world_corners(ib.to_world()));
         let (ta, tb) = (ia.bvh().leaf_triangles(), ib.bvh().leaf_triangles());
         let (ida, idb) = (ia.bvh().prim_ids(), ib.bvh().prim_ids());
         moved_b.clear();
@@ -130,22 +110,7 @@ pub fn self_contacts(world: &SceneBvh, object: u32) -> Result<Vec<Contact>> {
             });
         }
     };
-    self_overlapping_leaves(inst.bvh().wide(), |la, lb| {
-        if la == lb {
-            for x in la.slots() {
-                for y in x + 1..la.slots().end {
-                    test(x, y);
-                }
-            }
-        } else {
-            for x in la.slots() {
-                for y in lb.slots() {
-                    test(x, y);
-                }
-            }
-        }
-        ControlFlow::Continue(())
-    });
+    for_each_self_candidate(inst.bvh().wide(), &mut test);
     contacts.sort_unstable();
     Ok(contacts)
 }

@@ -1,0 +1,539 @@
+//! Continuous tests of two moving primitives, vertex–face and edge–edge,
+//! by inclusion-based root finding (Wang et al. 2021, "A Large-scale
+//! Benchmark and an Inclusion-based Algorithm for Continuous Collision
+//! Detection").
+//!
+//! Each vertex moves on a straight line from its position at t = 0 to its
+//! position at t = 1. Contact is a root of a function F(t, u, v) that is
+//! linear in each of its three parameters: for a vertex p and a face
+//! (f0, f1, f2), F = p(t) − f0(t) − u (f1(t) − f0(t)) − v (f2(t) − f0(t))
+//! with u, v ≥ 0, u + v ≤ 1; for edges (a0, a1) and (b0, b1),
+//! F = a0(t) + u (a1(t) − a0(t)) − b0(t) − v (b1(t) − b0(t)). Such a
+//! function is, over a box of parameters, a convex combination of its
+//! values at the box's eight corners, so a plane that has every corner
+//! value (widened by a bound on its rounding) strictly on one side cannot
+//! hold a root. The search bisects parameter boxes, drops those that such a
+//! plane separates from the origin (the three axes, and the primitives'
+//! normal, along which a near miss shows at once), and stops at the first
+//! box, in order of its earliest time, whose values lie within the
+//! tolerance of the origin. A root's box is never dropped, so nothing that
+//! touches is missed; coplanar, parallel and motionless configurations need
+//! no special case. Corners are evaluated in f64 with a forward error
+//! bound; where a plane separates only within that bound, the box is
+//! evaluated again in double-double arithmetic, whose bound is 2⁻⁵⁰ times
+//! smaller, so near misses far below f64's resolution are still told from
+//! contacts.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+use std::ops::{Add, Mul, Sub};
+
+use glam::DVec3;
+use twofloat::TwoFloat;
+
+/// How close two primitives must come to count as touching, and how much
+/// work one test may do.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CcdOptions {
+    /// Largest distance, per coordinate, at which the primitives are taken
+    /// to touch; the reported time of impact is at most this far (in space)
+    /// before the true one.
+    pub tolerance: f64,
+    /// Parameter boxes examined before the test gives up and reports a
+    /// contact at the earliest time still in question (never a miss).
+    pub max_boxes: u32,
+}
+
+impl Default for CcdOptions {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-6,
+            max_boxes: 10_000,
+        }
+    }
+}
+
+/// A vertex against a triangle, each corner at t = 0 and at t = 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VertexFace {
+    pub vertex: [DVec3; 2],
+    pub face: [[DVec3; 2]; 3],
+}
+
+/// Two edges, each end at t = 0 and at t = 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgeEdge {
+    pub a: [[DVec3; 2]; 2],
+    pub b: [[DVec3; 2]; 2],
+}
+
+/// Parameter box: [lo, hi] for t, u and v.
+type Domain = [[f64; 2]; 3];
+
+/// The arithmetic corners are evaluated in: f64, or double-double where
+/// f64 cannot decide.
+trait Real: Copy + PartialOrd + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
+    /// Bound on the relative error of one operation: 2⁻⁵³ for f64; for
+    /// double-double, Joldes, Muller and Popescu (2017) bound addition by
+    /// 3u² + 13u³ and multiplication by 5u², rounded up here to 8u².
+    const UNIT: f64;
+    fn of(x: f64) -> Self;
+    fn abs(self) -> Self;
+}
+
+impl Real for f64 {
+    const UNIT: f64 = f64::EPSILON / 2.0;
+    fn of(x: f64) -> Self {
+        x
+    }
+    fn abs(self) -> Self {
+        f64::abs(self)
+    }
+}
+
+impl Real for TwoFloat {
+    const UNIT: f64 = 8.0 * (f64::EPSILON / 2.0) * (f64::EPSILON / 2.0);
+    fn of(x: f64) -> Self {
+        TwoFloat::from(x)
+    }
+    fn abs(self) -> Self {
+        TwoFloat::abs(&self)
+    }
+}
+
+type V<T> = [T; 3];
+
+fn v_of<T: Real>(p: DVec3) -> V<T> {
+    [T::of(p.x), T::of(p.y), T::of(p.z)]
+}
+
+fn sub<T: Real>(a: V<T>, b: V<T>) -> V<T> {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn add<T: Real>(a: V<T>, b: V<T>) -> V<T> {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn scale<T: Real>(a: V<T>, s: T) -> V<T> {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+
+/// `a + s (b − a)`, the form whose rounding the bounds below count.
+fn lerp<T: Real>(a: V<T>, b: V<T>, s: f64) -> V<T> {
+    add(a, scale(sub(b, a), T::of(s)))
+}
+
+fn moving<T: Real>(p: &[DVec3; 2], t: f64) -> V<T> {
+    lerp(v_of(p[0]), v_of(p[1]), t)
+}
+
+/// Relative rounding bound of one corner value, in units of the largest
+/// coordinate magnitude times the arithmetic's unit: a forward error count
+/// of the corner evaluation gives 22 for edge–edge (three interpolations
+/// and a difference) and 52 for vertex–face; the bounds kept are about
+/// twice that.
+const EDGE_EDGE_ROUNDING: f64 = 48.0;
+const VERTEX_FACE_ROUNDING: f64 = 96.0;
+
+/// Largest coordinate magnitude per axis over the given points.
+fn magnitude<'a>(points: impl IntoIterator<Item = &'a DVec3>) -> DVec3 {
+    points.into_iter().fold(DVec3::ZERO, |m, p| m.max(p.abs()))
+}
+
+/// The rounding bound per coordinate of corner values computed in `T`.
+fn rounding<T: Real>(magnitude: DVec3, operations: f64) -> DVec3 {
+    magnitude * (operations * T::UNIT) + DVec3::splat(operations * f64::MIN_POSITIVE)
+}
+
+/// What a primitive pair gives the search.
+trait Primitives {
+    /// F at the eight corners of `d`, index `4 t + 2 u + v`.
+    fn corners<T: Real>(&self, d: &Domain) -> [V<T>; 8];
+    /// A direction along which F's component does not depend on (u, v)
+    /// halfway through the box's time.
+    fn normal(&self, d: &Domain) -> DVec3;
+    /// The forward error count of [`Primitives::corners`].
+    const OPERATIONS: f64;
+    /// Whether (u, v) is restricted to the triangle u + v ≤ 1.
+    const SIMPLEX: bool;
+    fn points(&self) -> impl Iterator<Item = &DVec3>;
+}
+
+impl Primitives for VertexFace {
+    fn corners<T: Real>(&self, d: &Domain) -> [V<T>; 8] {
+        let mut out = [[T::of(0.0); 3]; 8];
+        for (i, &t) in d[0].iter().enumerate() {
+            let p = moving(&self.vertex, t);
+            let [f0, f1, f2] = self.face.each_ref().map(|f| moving::<T>(f, t));
+            let (e1, e2) = (sub(f1, f0), sub(f2, f0));
+            for (j, &u) in d[1].iter().enumerate() {
+                let fu = add(f0, scale(e1, T::of(u)));
+                for (k, &v) in d[2].iter().enumerate() {
+                    out[4 * i + 2 * j + k] = sub(p, add(fu, scale(e2, T::of(v))));
+                }
+            }
+        }
+        out
+    }
+
+    /// The face's normal: F along it is the vertex's height over the
+    /// face's plane.
+    fn normal(&self, d: &Domain) -> DVec3 {
+        let mid = 0.5 * (d[0][0] + d[0][1]);
+        let [f0, f1, f2] = self.face.map(|f| f[0].lerp(f[1], mid));
+        (f1 - f0).cross(f2 - f0)
+    }
+
+    const OPERATIONS: f64 = VERTEX_FACE_ROUNDING;
+    const SIMPLEX: bool = true;
+
+    fn points(&self) -> impl Iterator<Item = &DVec3> {
+        self.vertex.iter().chain(self.face.iter().flatten())
+    }
+}
+
+impl Primitives for EdgeEdge {
+    fn corners<T: Real>(&self, d: &Domain) -> [V<T>; 8] {
+        let mut out = [[T::of(0.0); 3]; 8];
+        for (i, &t) in d[0].iter().enumerate() {
+            let [a0, a1] = self.a.each_ref().map(|p| moving::<T>(p, t));
+            let [b0, b1] = self.b.each_ref().map(|p| moving::<T>(p, t));
+            for (j, &u) in d[1].iter().enumerate() {
+                let pa = lerp(a0, a1, u);
+                for (k, &v) in d[2].iter().enumerate() {
+                    out[4 * i + 2 * j + k] = sub(pa, lerp(b0, b1, v));
+                }
+            }
+        }
+        out
+    }
+
+    /// The edges' common normal: F along it is the lines' distance.
+    fn normal(&self, d: &Domain) -> DVec3 {
+        let mid = 0.5 * (d[0][0] + d[0][1]);
+        let [a0, a1] = self.a.map(|p| p[0].lerp(p[1], mid));
+        let [b0, b1] = self.b.map(|p| p[0].lerp(p[1], mid));
+        (a1 - a0).cross(b1 - b0)
+    }
+
+    const OPERATIONS: f64 = EDGE_EDGE_ROUNDING;
+    const SIMPLEX: bool = false;
+
+    fn points(&self) -> impl Iterator<Item = &DVec3> {
+        self.a.iter().chain(&self.b).flatten()
+    }
+}
+
+/// Whether the plane through the origin with normal `n` has every corner
+/// value strictly on one side: `Some(true)` beyond the rounding of the
+/// values (`rounding` per coordinate) and of the dot products, `Some(false)`
+/// only within it, `None` where the values straddle the plane.
+fn separates<T: Real>(values: &[V<T>; 8], n: DVec3, rounding: DVec3) -> Option<bool> {
+    let (n, an) = (v_of::<T>(n), n.abs());
+    let shift = rounding.dot(an);
+    let (mut above, mut below, mut clear) = (true, true, true);
+    let zero = T::of(0.0);
+    for v in values {
+        let dot = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+        let size = v[0].abs() * T::of(an.x) + v[1].abs() * T::of(an.y) + v[2].abs() * T::of(an.z);
+        // Three products and two sums, each within UNIT of its result.
+        let margin = T::of(shift) + size * T::of(6.0 * T::UNIT);
+        above &= dot > zero;
+        below &= dot < zero;
+        clear &= dot > margin || zero - dot > margin;
+    }
+    (above || below).then_some(clear)
+}
+
+/// The same for the three coordinate planes: `Some(true)` where one
+/// coordinate has every value beyond its rounding on one side.
+fn separates_on_an_axis<T: Real>(values: &[V<T>; 8], rounding: DVec3) -> Option<bool> {
+    let zero = T::of(0.0);
+    let mut verdict = None;
+    for axis in 0..3 {
+        let r = T::of(rounding[axis]);
+        let (above, below) = (
+            values.iter().all(|v| v[axis] > zero),
+            values.iter().all(|v| v[axis] < zero),
+        );
+        if above || below {
+            let clear = values.iter().all(|v| v[axis] > r || zero - v[axis] > r);
+            if clear {
+                return Some(true);
+            }
+            verdict = Some(false);
+        }
+    }
+    verdict
+}
+
+/// Whether some plane separates the box's values from the origin, beyond
+/// doubt: decided in f64 where that suffices, else in double-double.
+fn box_is_apart<P: Primitives>(
+    primitives: &P,
+    d: &Domain,
+    values: &[V<f64>; 8],
+    bounds: &[DVec3; 2],
+) -> bool {
+    let normal = primitives.normal(d);
+    let axis = separates_on_an_axis(values, bounds[0]);
+    let plane = separates(values, normal, bounds[0]);
+    if axis == Some(true) || plane == Some(true) {
+        return true;
+    }
+    if axis.is_none() && plane.is_none() {
+        return false;
+    }
+    let exact: [V<TwoFloat>; 8] = primitives.corners(d);
+    separates_on_an_axis(&exact, bounds[1]) == Some(true)
+        || separates(&exact, normal, bounds[1]) == Some(true)
+}
+
+impl VertexFace {
+    /// Earliest time in [0, 1] at which the vertex comes within the
+    /// tolerance of the face, or `None` if it never touches it.
+    pub fn time_of_impact(&self, options: &CcdOptions, scratch: &mut CcdScratch) -> Option<f64> {
+        scratch.search(self, options)
+    }
+}
+
+impl EdgeEdge {
+    /// Earliest time in [0, 1] at which the edges come within the
+    /// tolerance of each other, or `None` if they never touch.
+    pub fn time_of_impact(&self, options: &CcdOptions, scratch: &mut CcdScratch) -> Option<f64> {
+        scratch.search(self, options)
+    }
+}
+
+/// The search's queue, kept between tests so that a test allocates
+/// nothing once the queue has grown.
+#[derive(Debug, Default)]
+pub struct CcdScratch {
+    /// Boxes by earliest time first, then deepest first; `t ≥ 0`, so the
+    /// bits of `t` order as the numbers do.
+    queue: BinaryHeap<(Reverse<u64>, u32, Boxed)>,
+}
+
+/// A parameter box in the queue, with the order the heap needs (ties
+/// between equal times are broken arbitrarily but deterministically).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Boxed(Domain);
+
+impl Eq for Boxed {}
+
+impl PartialOrd for Boxed {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Boxed {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        let key = |d: &Domain| d.map(|r| r.map(f64::to_bits));
+        key(&self.0).cmp(&key(&other.0))
+    }
+}
+
+impl CcdScratch {
+    /// Bisects parameter boxes, earliest first, until one is within the
+    /// tolerance (its earliest time is the answer) or none is left.
+    fn search<P: Primitives>(&mut self, primitives: &P, options: &CcdOptions) -> Option<f64> {
+        let size = magnitude(primitives.points());
+        let bounds = [
+            rounding::<f64>(size, P::OPERATIONS),
+            rounding::<TwoFloat>(size, P::OPERATIONS),
+        ];
+        let tolerance = DVec3::splat(options.tolerance) - bounds[0];
+        self.queue.clear();
+        let whole: Domain = [[0.0, 1.0]; 3];
+        self.queue.push((Reverse(0), 0, Boxed(whole)));
+        let mut examined = 0u32;
+        while let Some((_, depth, Boxed(d))) = self.queue.pop() {
+            examined += 1;
+            let values: [V<f64>; 8] = primitives.corners(&d);
+            if box_is_apart(primitives, &d, &values, &bounds) {
+                continue;
+            }
+            let values = values.map(DVec3::from_array);
+            let (lo, hi) = values
+                .iter()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(*v), hi.max(*v))
+                });
+            let within = lo.cmpge(-tolerance).all() && hi.cmple(tolerance).all();
+            if within || examined >= options.max_boxes {
+                return Some(d[0][0]);
+            }
+            // Split the parameter along which F varies most in this box.
+            let spread = |axis: usize| {
+                let bit = 4 >> axis;
+                (0..8)
+                    .filter(|i| i & bit == 0)
+                    .map(|i| (values[i | bit] - values[i]).abs().max_element())
+                    .fold(0.0, f64::max)
+            };
+            let axis = (0..3)
+                .max_by(|&x, &y| spread(x).total_cmp(&spread(y)))
+                .unwrap_or(0);
+            let [a, b] = d[axis];
+            let mid = 0.5 * (a + b);
+            if !(a < mid && mid < b) {
+                // The box cannot be split further in f64: report it.
+                return Some(d[0][0]);
+            }
+            for half in [[a, mid], [mid, b]] {
+                let mut child = d;
+                child[axis] = half;
+                if P::SIMPLEX && child[1][0] + child[2][0] > 1.0 {
+                    continue;
+                }
+                self.queue
+                    .push((Reverse(child[0][0].to_bits()), depth + 1, Boxed(child)));
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn still(p: DVec3) -> [DVec3; 2] {
+        [p, p]
+    }
+
+    fn toi_vf(q: &VertexFace) -> Option<f64> {
+        q.time_of_impact(&CcdOptions::default(), &mut CcdScratch::default())
+    }
+
+    fn toi_ee(q: &EdgeEdge) -> Option<f64> {
+        q.time_of_impact(&CcdOptions::default(), &mut CcdScratch::default())
+    }
+
+    fn floor_face() -> [[DVec3; 2]; 3] {
+        [
+            still(DVec3::new(0.0, 0.0, 0.0)),
+            still(DVec3::new(1.0, 0.0, 0.0)),
+            still(DVec3::new(0.0, 1.0, 0.0)),
+        ]
+    }
+
+    #[test]
+    fn a_falling_vertex_hits_the_face_when_it_reaches_it() {
+        let q = VertexFace {
+            vertex: [DVec3::new(0.25, 0.25, 1.0), DVec3::new(0.25, 0.25, -1.0)],
+            face: floor_face(),
+        };
+        let t = toi_vf(&q).expect("crosses the face");
+        assert!(t <= 0.5 && t > 0.5 - 1e-5, "{t}");
+    }
+
+    #[test]
+    fn a_vertex_passing_beside_the_face_misses_it() {
+        let q = VertexFace {
+            vertex: [DVec3::new(0.6, 0.6, 1.0), DVec3::new(0.6, 0.6, -1.0)],
+            face: floor_face(),
+        };
+        assert_eq!(toi_vf(&q), None);
+    }
+
+    #[test]
+    fn a_vertex_passing_exactly_through_an_edge_hits() {
+        // Through the hypotenuse's midpoint, where u + v = 1 exactly.
+        let q = VertexFace {
+            vertex: [DVec3::new(0.5, 0.5, 1.0), DVec3::new(0.5, 0.5, -1.0)],
+            face: floor_face(),
+        };
+        assert!(toi_vf(&q).is_some());
+    }
+
+    #[test]
+    fn a_face_reaching_a_vertex_at_the_end_of_the_step_hits_at_one() {
+        let face = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+            .map(|[x, y]| [DVec3::new(x, y, -1.0), DVec3::new(x, y, 0.0)]);
+        let q = VertexFace {
+            vertex: still(DVec3::new(0.2, 0.2, 0.0)),
+            face,
+        };
+        let t = toi_vf(&q).expect("touches at t = 1");
+        assert!(t > 1.0 - 1e-5 && t <= 1.0, "{t}");
+        let short = VertexFace {
+            vertex: still(DVec3::new(0.2, 0.2, 1e-3)),
+            face,
+        };
+        assert_eq!(toi_vf(&short), None);
+    }
+
+    #[test]
+    fn motionless_primitives_touch_at_zero_or_never() {
+        let touching = VertexFace {
+            vertex: still(DVec3::new(0.3, 0.3, 0.0)),
+            face: floor_face(),
+        };
+        assert_eq!(toi_vf(&touching), Some(0.0));
+        let apart = VertexFace {
+            vertex: still(DVec3::new(0.3, 0.3, 1e-3)),
+            face: floor_face(),
+        };
+        assert_eq!(toi_vf(&apart), None);
+    }
+
+    #[test]
+    fn crossing_edges_meet_and_parallel_edges_meet_only_when_they_touch() {
+        let a = [
+            still(DVec3::new(-1.0, 0.0, 0.0)),
+            still(DVec3::new(1.0, 0.0, 0.0)),
+        ];
+        let crossing = EdgeEdge {
+            a,
+            b: [
+                [DVec3::new(0.0, -1.0, 1.0), DVec3::new(0.0, -1.0, -1.0)],
+                [DVec3::new(0.0, 1.0, 1.0), DVec3::new(0.0, 1.0, -1.0)],
+            ],
+        };
+        let t = toi_ee(&crossing).expect("crosses");
+        assert!(t <= 0.5 && t > 0.5 - 1e-5, "{t}");
+        // Parallel edges falling onto one another, overlapping over half
+        // their length, and the same edges shifted sideways past the end.
+        let parallel = |x: f64| EdgeEdge {
+            a,
+            b: [
+                [DVec3::new(x, 0.0, 1.0), DVec3::new(x, 0.0, -1.0)],
+                [
+                    DVec3::new(x + 2.0, 0.0, 1.0),
+                    DVec3::new(x + 2.0, 0.0, -1.0),
+                ],
+            ],
+        };
+        assert!(toi_ee(&parallel(0.0)).is_some());
+        assert!(toi_ee(&parallel(1.0)).is_some(), "end touches end");
+        assert_eq!(toi_ee(&parallel(1.001)), None);
+    }
+
+    #[test]
+    fn large_and_small_scales_decide_alike() {
+        for scale in [1e-3, 1e4] {
+            let options = CcdOptions {
+                tolerance: 1e-6 * scale,
+                ..CcdOptions::default()
+            };
+            let at = |x: f64, z0: f64, z1: f64| VertexFace {
+                vertex: [
+                    DVec3::new(x, 0.25, z0) * scale,
+                    DVec3::new(x, 0.25, z1) * scale,
+                ],
+                face: floor_face().map(|c| c.map(|p| p * scale)),
+            };
+            let mut scratch = CcdScratch::default();
+            let t = at(0.25, 1.0, -1.0).time_of_impact(&options, &mut scratch);
+            assert!(
+                t.is_some_and(|t| t <= 0.5 && t > 0.5 - 1e-5),
+                "{scale}: {t:?}"
+            );
+            let miss = at(0.76, 1.0, -1.0).time_of_impact(&options, &mut scratch);
+            assert_eq!(miss, None, "{scale}");
+        }
+    }
+}
