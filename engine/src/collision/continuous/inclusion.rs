@@ -24,8 +24,6 @@
 //! smaller, so near misses far below f64's resolution are still told from
 //! contacts.
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 use std::ops::{Add, Mul, Sub};
 
 use glam::DVec3;
@@ -306,38 +304,21 @@ impl EdgeEdge {
     }
 }
 
-/// The search's queue, kept between tests so that a test allocates
-/// nothing once the queue has grown.
+/// The search's stack of parameter boxes, kept between tests so that a
+/// test allocates nothing once the stack has grown.
 #[derive(Debug, Default)]
 pub struct CcdScratch {
-    /// Boxes by earliest time first, then deepest first; `t ≥ 0`, so the
-    /// bits of `t` order as the numbers do.
-    queue: BinaryHeap<(Reverse<u64>, u32, Boxed)>,
-}
-
-/// A parameter box in the queue, with the order the heap needs (ties
-/// between equal times are broken arbitrarily but deterministically).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Boxed(Domain);
-
-impl Eq for Boxed {}
-
-impl PartialOrd for Boxed {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Boxed {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        let key = |d: &Domain| d.map(|r| r.map(f64::to_bits));
-        key(&self.0).cmp(&key(&other.0))
-    }
+    stack: Vec<Domain>,
 }
 
 impl CcdScratch {
-    /// Bisects parameter boxes, earliest first, until one is within the
-    /// tolerance (its earliest time is the answer) or none is left.
+    /// Depth first, earlier half first, with the earliest time of a box
+    /// found within the tolerance as a bound: boxes that start later are
+    /// skipped, and those that end later are cut to end there, so that once
+    /// a contact is found only earlier ones are looked for (a search by
+    /// earliest time instead spreads over every box of a contact set, such
+    /// as parallel edges meeting along a segment). The answer is at most
+    /// the earliest root's time: a box holding a root is never dropped.
     fn search<P: Primitives>(&mut self, primitives: &P, options: &CcdOptions) -> Option<f64> {
         let size = magnitude(primitives.points());
         let bounds = [
@@ -345,12 +326,24 @@ impl CcdScratch {
             rounding::<TwoFloat>(size, P::OPERATIONS),
         ];
         let tolerance = DVec3::splat(options.tolerance) - bounds[0];
-        self.queue.clear();
-        let whole: Domain = [[0.0, 1.0]; 3];
-        self.queue.push((Reverse(0), 0, Boxed(whole)));
+        self.stack.clear();
+        self.stack.push([[0.0, 1.0]; 3]);
+        let mut best: Option<f64> = None;
         let mut examined = 0u32;
-        while let Some((_, depth, Boxed(d))) = self.queue.pop() {
+        while let Some(mut d) = self.stack.pop() {
+            if let Some(b) = best {
+                if d[0][0] >= b {
+                    continue;
+                }
+                d[0][1] = d[0][1].min(b);
+            }
             examined += 1;
+            if examined > options.max_boxes {
+                // Out of work: nothing earlier than the earliest box left
+                // is excluded.
+                let left = self.stack.iter().map(|d| d[0][0]).fold(d[0][0], f64::min);
+                return Some(best.map_or(left, |b| b.min(left)));
+            }
             let values: [V<f64>; 8] = primitives.corners(&d);
             if box_is_apart(primitives, &d, &values, &bounds) {
                 continue;
@@ -361,9 +354,9 @@ impl CcdScratch {
                 .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
                     (lo.min(*v), hi.max(*v))
                 });
-            let within = lo.cmpge(-tolerance).all() && hi.cmple(tolerance).all();
-            if within || examined >= options.max_boxes {
-                return Some(d[0][0]);
+            if lo.cmpge(-tolerance).all() && hi.cmple(tolerance).all() {
+                best = Some(d[0][0]);
+                continue;
             }
             // Split the parameter along which F varies most in this box.
             let spread = |axis: usize| {
@@ -379,20 +372,23 @@ impl CcdScratch {
             let [a, b] = d[axis];
             let mid = 0.5 * (a + b);
             if !(a < mid && mid < b) {
-                // The box cannot be split further in f64: report it.
-                return Some(d[0][0]);
+                // The box cannot be split further in f64: count it as a
+                // contact.
+                best = Some(d[0][0]);
+                continue;
             }
-            for half in [[a, mid], [mid, b]] {
+            // The later half first onto the stack, so the earlier is taken
+            // first.
+            for half in [[mid, b], [a, mid]] {
                 let mut child = d;
                 child[axis] = half;
                 if P::SIMPLEX && child[1][0] + child[2][0] > 1.0 {
                     continue;
                 }
-                self.queue
-                    .push((Reverse(child[0][0].to_bits()), depth + 1, Boxed(child)));
+                self.stack.push(child);
             }
         }
-        None
+        best
     }
 }
 
