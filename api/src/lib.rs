@@ -6,6 +6,7 @@
 //! the contract is written once, and an engine refactor cannot change it
 //! unnoticed: answers are converted from engine types here, field by field.
 
+pub mod collisions;
 pub mod impulse_responses;
 pub mod materials;
 pub mod objects;

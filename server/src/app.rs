@@ -24,7 +24,7 @@ use crate::error::ApiError;
 use crate::metrics::{self, Metrics};
 use crate::registry::Registry;
 use crate::routes::{
-    health, impulse_responses, materials, objects, occlusion, rays, scenes, stream,
+    collisions, health, impulse_responses, materials, objects, occlusion, rays, scenes, stream,
 };
 
 #[derive(Clone)]
@@ -221,6 +221,10 @@ pub fn router(state: AppState) -> Router {
         .routes(routes!(impulse_responses::create))
         .routes(routes!(stream::connect))
         .routes(routes!(rays::trace).layer(axum::extract::DefaultBodyLimit::max(rays::BODY_LIMIT)))
+        .routes(
+            routes!(collisions::query)
+                .layer(axum::extract::DefaultBodyLimit::max(objects::BODY_LIMIT)),
+        )
         .routes(
             routes!(occlusion::check).layer(axum::extract::DefaultBodyLimit::max(rays::BODY_LIMIT)),
         )

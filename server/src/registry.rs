@@ -349,6 +349,23 @@ impl Registry {
         entry: &SceneEntry,
         edits: &[(usize, ObjectEdit)],
     ) -> Result<Vec<EditReport>, ApiError> {
+        let (reports, ()) = self.edit_objects_around(entry, edits, |_, _| Ok(()), |_, ()| ())?;
+        Ok(reports)
+    }
+
+    /// [`edit_objects`](Self::edit_objects) with a query on each side,
+    /// under the same write lock: `before` sees the scene as it was and the
+    /// checked edits, `after` the scene with them applied, so a collision
+    /// query and the motion it is about are one atomic step. Nothing is
+    /// stored or applied when an edit is invalid or `before` fails.
+    /// Blocking.
+    pub fn edit_objects_around<B, R>(
+        &self,
+        entry: &SceneEntry,
+        edits: &[(usize, ObjectEdit)],
+        before: impl FnOnce(&LiveScene, &[PreparedEdit]) -> Result<B, ApiError>,
+        after: impl FnOnce(&LiveScene, B) -> R,
+    ) -> Result<(Vec<EditReport>, R), ApiError> {
         let mut live = entry.write();
         if live.deleted {
             return Err(ApiError::SceneNotFound(entry.id.clone()));
@@ -357,20 +374,25 @@ impl Registry {
             .iter()
             .map(|(object, edit)| prepare(&live, *object, edit))
             .collect::<Result<Vec<_>, _>>()?;
-        let overlays: Vec<ObjectOverlay<'_>> = edits
+        let seen = before(&live, &prepared)?;
+        let overlays: Vec<ObjectOverlay<'_>> = prepared
             .iter()
-            .zip(&prepared)
-            .map(|(&(object, _), (transform, mesh))| ObjectOverlay {
-                object: object as u32,
-                transform: transform.as_ref(),
-                positions: mesh.as_ref().map(|m| m.positions()),
+            .map(|p| ObjectOverlay {
+                object: p.object as u32,
+                transform: p.transform.as_ref(),
+                positions: p.mesh.as_ref().map(|m| m.positions()),
             })
             .collect();
         self.store
             .put_object_edits(&entry.id, &overlays)
             .map_err(ApiError::storage)?;
         let mut reports = Vec::with_capacity(prepared.len());
-        for (&(object, _), (transform, mesh)) in edits.iter().zip(prepared) {
+        for PreparedEdit {
+            object,
+            transform,
+            mesh,
+        } in prepared
+        {
             let start = Instant::now();
             let mut update: Option<UpdateReport> = None;
             if let Some(t) = transform {
@@ -400,7 +422,7 @@ impl Registry {
                 elapsed_ms: start.elapsed().as_secs_f64() * 1e3,
             });
         }
-        Ok(reports)
+        Ok((reports, after(&live, seen)))
     }
 
     /// Replaces materials by name (coefficients only) and adds new ones;
@@ -445,12 +467,16 @@ impl Registry {
     }
 }
 
-/// An edit's new transform and mesh, checked against the object as it is.
-fn prepare(
-    live: &LiveScene,
-    object: usize,
-    edit: &ObjectEdit,
-) -> Result<(Option<RigidTransform>, Option<TriangleMesh>), ApiError> {
+/// An edit checked against the object as it is: the new transform and
+/// the new mesh it asks for.
+#[derive(Debug)]
+pub struct PreparedEdit {
+    pub object: usize,
+    pub transform: Option<RigidTransform>,
+    pub mesh: Option<TriangleMesh>,
+}
+
+fn prepare(live: &LiveScene, object: usize, edit: &ObjectEdit) -> Result<PreparedEdit, ApiError> {
     let Some(current) = live.scene.objects.get(object) else {
         return Err(ApiError::UnknownObject(format!(
             "#{object} (the scene has {})",
@@ -477,7 +503,11 @@ fn prepare(
         ),
         None => None,
     };
-    Ok((transform, mesh))
+    Ok(PreparedEdit {
+        object,
+        transform,
+        mesh,
+    })
 }
 
 /// The scene's stored document, once it has been read back the way a

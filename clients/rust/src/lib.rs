@@ -4,6 +4,7 @@
 //! types, error statuses into their problem documents ([`Error`]), and one
 //! WebSocket reader and writer with typed frames ([`Stream`]).
 
+mod collisions;
 mod error;
 mod http;
 mod impulse_responses;

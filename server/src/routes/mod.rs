@@ -1,5 +1,6 @@
 //! One handler file per resource.
 
+pub mod collisions;
 pub mod health;
 pub mod impulse_responses;
 pub mod large_body;

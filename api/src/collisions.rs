@@ -1,0 +1,122 @@
+//! `POST /v1/scenes/{id}/collisions`: which triangles of which objects
+//! touch, come close, or meet during a motion, optionally after moving
+//! objects in the same atomic step.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use crate::schemas::{Quaternion, Vector3};
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum CollisionKind {
+    /// Triangles that intersect (touching counts), decided exactly, in
+    /// the poses after `moves`.
+    #[default]
+    Discrete,
+    /// Triangles at most `distance` apart, with their distance, in the
+    /// poses after `moves`.
+    Proximity,
+    /// Triangles that meet while every vertex moves in a straight line
+    /// from its current position to its position after `moves`, with the
+    /// earliest time each pair does (0 now, 1 at the end of the motion).
+    Continuous,
+}
+
+#[derive(Clone, Debug, Default, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CollisionRequest {
+    #[serde(default)]
+    pub kind: CollisionKind,
+    /// Object pairs to test, by name or index. Omitted, with `self` also
+    /// omitted: every pair of distinct objects.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(max_items = 4096)]
+    pub pairs: Option<Vec<[String; 2]>>,
+    /// Objects tested against themselves (self-collision: triangles that
+    /// share no corner). Not for proximity, where neighbours always touch.
+    #[serde(default, rename = "self", skip_serializing_if = "Vec::is_empty")]
+    #[schema(max_items = 4096)]
+    pub self_objects: Vec<String>,
+    /// Proximity only (required there): the largest distance reported,
+    /// metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 0.0)]
+    pub distance: Option<f64>,
+    /// Continuous only: distance at which moving primitives count as
+    /// touching, metres; default a millionth of the scene's size.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(exclusive_minimum = 0.0)]
+    pub tolerance: Option<f64>,
+    /// Moves applied (and the hierarchies refitted) in the same step as
+    /// the query, stored like `PATCH …/objects/{object}`. Discrete and
+    /// proximity queries see the objects after them; a continuous query
+    /// sees the motion from before to after.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schema(max_items = 4096)]
+    pub moves: Vec<ObjectMove>,
+    /// Most contacts listed (default 1,000, at most 100,000); `total`
+    /// counts them all.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 0, maximum = 100000)]
+    pub max_contacts: Option<usize>,
+}
+
+/// One object's new pose; omitted parts stay as they are.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectMove {
+    /// Object name or index.
+    pub object: String,
+    /// Quaternion `[x, y, z, w]` (normalised by the server).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Quaternion>)]
+    pub rotation: Option<[f32; 4]>,
+    /// `[x, y, z]` in metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Vector3>)]
+    pub translation: Option<[f32; 3]>,
+    /// Every vertex's new position in the object's frame, in the mesh's
+    /// vertex order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Vec<Vector3>>, min_items = 1)]
+    pub vertices: Option<Vec<[f32; 3]>>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct CollisionResponse {
+    /// The scene's revision the answer is for (after `moves`).
+    pub revision: u64,
+    pub kind: CollisionKind,
+    /// Sorted by object pair and triangles; continuous contacts by time
+    /// first.
+    pub contacts: Vec<TriangleContact>,
+    /// Contacts found, listed or not.
+    pub total: usize,
+    /// Whether `contacts` stops short of `total` (`max_contacts`).
+    pub truncated: bool,
+    /// Continuous only: the earliest time of impact of all contacts, or
+    /// null when nothing meets.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub earliest_time: Option<f64>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct TriangleContact {
+    pub a: TriangleRef,
+    pub b: TriangleRef,
+    /// Proximity only: the triangles' distance, metres (0 where they
+    /// intersect).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance: Option<f64>,
+    /// Continuous only: earliest time in [0, 1] at which the pair meets.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time: Option<f64>,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+pub struct TriangleRef {
+    pub object: String,
+    /// Triangle index in the object's mesh.
+    pub triangle: u32,
+}
