@@ -5,7 +5,8 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use crate::schemas::{Quaternion, Vector3};
+use crate::objects::ObjectMove;
+use crate::schemas::ObjectPair;
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(rename_all = "lowercase")]
@@ -31,7 +32,7 @@ pub struct CollisionRequest {
     /// Object pairs to test, by name or index. Omitted, with `self` also
     /// omitted: every pair of distinct objects.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(max_items = 4096)]
+    #[schema(value_type = Option<Vec<ObjectPair>>, max_items = 4096)]
     pub pairs: Option<Vec<[String; 2]>>,
     /// Objects tested against themselves (self-collision: triangles that
     /// share no corner). Not for proximity, where neighbours always touch.
@@ -60,27 +61,6 @@ pub struct CollisionRequest {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(minimum = 0, maximum = 100000)]
     pub max_contacts: Option<usize>,
-}
-
-/// One object's new pose; omitted parts stay as they are.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ObjectMove {
-    /// Object name or index.
-    pub object: String,
-    /// Quaternion `[x, y, z, w]` (normalised by the server).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(value_type = Option<Quaternion>)]
-    pub rotation: Option<[f32; 4]>,
-    /// `[x, y, z]` in metres.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(value_type = Option<Vector3>)]
-    pub translation: Option<[f32; 3]>,
-    /// Every vertex's new position in the object's frame, in the mesh's
-    /// vertex order.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(value_type = Option<Vec<Vector3>>, min_items = 1)]
-    pub vertices: Option<Vec<[f32; 3]>>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]

@@ -25,6 +25,17 @@ pub struct ObjectPatch {
     pub vertices: Option<Vec<[f32; 3]>>,
 }
 
+/// An object edit sent with another request (a stream update, a
+/// collision query): applied and stored as a `PATCH` is.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectMove {
+    /// Name or index.
+    pub object: String,
+    #[serde(flatten)]
+    pub patch: ObjectPatch,
+}
+
 /// What an object edit did, for the answer and the metrics.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct EditReport {

@@ -64,6 +64,27 @@ impl utoipa::ToSchema for Quaternion {
     }
 }
 
+/// `["a", "b"]`: two objects by name or index.
+pub struct ObjectPair;
+
+impl utoipa::PartialSchema for ObjectPair {
+    fn schema() -> RefOr<Schema> {
+        ArrayBuilder::new()
+            .items(ObjectBuilder::new().schema_type(Type::String))
+            .min_items(Some(2))
+            .max_items(Some(2))
+            .description(Some("Two objects, each by name or index"))
+            .build()
+            .into()
+    }
+}
+
+impl utoipa::ToSchema for ObjectPair {
+    fn name() -> Cow<'static, str> {
+        Cow::Borrowed("ObjectPair")
+    }
+}
+
 /// Raw bytes: an OBJ, a GLB, a WAV or binary vertices.
 pub struct Binary;
 
@@ -99,5 +120,10 @@ mod tests {
         let schema = serde_json::to_value(Quaternion::schema()).expect("schema");
         assert_eq!(schema["minItems"], 4);
         assert_eq!(schema["maxItems"], 4);
+        let schema = serde_json::to_value(ObjectPair::schema()).expect("schema");
+        assert_eq!(
+            (&schema["minItems"], &schema["maxItems"]),
+            (&2.into(), &2.into())
+        );
     }
 }

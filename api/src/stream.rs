@@ -8,7 +8,8 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use crate::impulse_responses::{PairResponse, Point};
-use crate::objects::{EditReport, ObjectPatch};
+use crate::objects::EditReport;
+pub use crate::objects::ObjectMove;
 use crate::problem::Problem;
 
 /// One message from the client; omitted fields keep their last value.
@@ -28,16 +29,6 @@ pub struct StreamUpdate {
     pub options: Option<SimulationOptions>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub objects: Option<Vec<ObjectMove>>,
-}
-
-/// An object edit sent on a stream: applied and stored as a `PATCH` is.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ObjectMove {
-    /// Name or index.
-    pub object: String,
-    #[serde(flatten)]
-    pub patch: ObjectPatch,
 }
 
 /// A text frame from the server.

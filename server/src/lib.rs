@@ -1,6 +1,6 @@
 //! `frusta-server`: scenes uploaded over REST and kept in a crash-safe
 //! store; impulse responses over HTTP and streamed over WebSocket as things
-//! move; ray and visibility queries on the same hierarchies.
+//! move; ray, visibility and collision queries on the same hierarchies.
 //!
 //! The binary is a thin shell over [`open`] and [`serve`], which tests and
 //! embedders call directly, or through [`BackgroundServer`].
@@ -8,6 +8,7 @@
 mod app;
 mod auth;
 mod background;
+mod collide;
 mod compute;
 pub mod config;
 mod connections;

@@ -1,7 +1,8 @@
 //! Collision queries end to end: the real server on a loopback port, and
 //! `frusta-client`.
 
-use frusta_client::api::collisions::{CollisionKind, CollisionRequest, ObjectMove};
+use frusta_client::api::collisions::{CollisionKind, CollisionRequest};
+use frusta_client::api::objects::{ObjectMove, ObjectPatch};
 use frusta_tests::*;
 use serde_json::json;
 
@@ -20,8 +21,10 @@ const CRATES: &str = r#"{
 fn shift_b(x: f32) -> Vec<ObjectMove> {
     vec![ObjectMove {
         object: "b".into(),
-        translation: Some([x, 0.0, 0.0]),
-        ..Default::default()
+        patch: ObjectPatch {
+            translation: Some([x, 0.0, 0.0]),
+            ..Default::default()
+        },
     }]
 }
 

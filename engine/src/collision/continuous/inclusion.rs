@@ -250,20 +250,69 @@ fn separates_on_an_axis<T: Real>(values: &[V<T>; 8], rounding: DVec3) -> Option<
     let zero = T::of(0.0);
     let mut verdict = None;
     for axis in 0..3 {
-        let r = T::of(rounding[axis]);
-        let (above, below) = (
-            values.iter().all(|v| v[axis] > zero),
-            values.iter().all(|v| v[axis] < zero),
-        );
-        if above || below {
-            let clear = values.iter().all(|v| v[axis] > r || zero - v[axis] > r);
-            if clear {
-                return Some(true);
+        let (mut lo, mut hi) = (values[0][axis], values[0][axis]);
+        for v in &values[1..] {
+            if v[axis] < lo {
+                lo = v[axis];
             }
+            if v[axis] > hi {
+                hi = v[axis];
+            }
+        }
+        let r = T::of(rounding[axis]);
+        if lo > r || zero - hi > r {
+            return Some(true);
+        }
+        if lo > zero || hi < zero {
             verdict = Some(false);
         }
     }
     verdict
+}
+
+/// Whether the box surely holds a root, by the Poincaré–Miranda theorem:
+/// with F preconditioned by the inverse of its mean differences along the
+/// box's edges (G = P F, still linear in each parameter, so its extremes on
+/// a face are at the face's corners), each component of G is negative on
+/// one face of its parameter and positive on the opposite one, beyond the
+/// rounding of F (`rounding`) and of the product.
+fn holds_a_root(values: &[DVec3; 8], rounding: DVec3) -> bool {
+    let mean_difference = |bit: usize| {
+        (0..8)
+            .filter(|i| i & bit == 0)
+            .map(|i| values[i | bit] - values[i])
+            .sum::<DVec3>()
+            * 0.25
+    };
+    let jacobian =
+        glam::DMat3::from_cols(mean_difference(4), mean_difference(2), mean_difference(1));
+    let det = jacobian.determinant();
+    if !det.is_normal() {
+        return false;
+    }
+    let p = jacobian.inverse();
+    let rows = [p.row(0), p.row(1), p.row(2)];
+    (0..3).all(|axis| {
+        let bit = 4 >> axis;
+        let row = rows[axis];
+        let g = |v: &DVec3| {
+            let margin = row.abs().dot(rounding) + 4.0 * f64::EPSILON * row.abs().dot(v.abs());
+            (row.dot(*v), margin)
+        };
+        let (mut low_negative, mut high_positive) = (true, true);
+        let (mut low_positive, mut high_negative) = (true, true);
+        for (i, v) in values.iter().enumerate() {
+            let (x, m) = g(v);
+            if i & bit == 0 {
+                low_negative &= x < -m;
+                low_positive &= x > m;
+            } else {
+                high_positive &= x > m;
+                high_negative &= x < -m;
+            }
+        }
+        (low_negative && high_positive) || (low_positive && high_negative)
+    })
 }
 
 /// Whether some plane separates the box's values from the origin, beyond
@@ -274,10 +323,13 @@ fn box_is_apart<P: Primitives>(
     values: &[V<f64>; 8],
     bounds: &[DVec3; 2],
 ) -> bool {
-    let normal = primitives.normal(d);
     let axis = separates_on_an_axis(values, bounds[0]);
+    if axis == Some(true) {
+        return true;
+    }
+    let normal = primitives.normal(d);
     let plane = separates(values, normal, bounds[0]);
-    if axis == Some(true) || plane == Some(true) {
+    if plane == Some(true) {
         return true;
     }
     if axis.is_none() && plane.is_none() {
@@ -358,7 +410,9 @@ impl CcdScratch {
                 best = Some(d[0][0]);
                 continue;
             }
-            // Split the parameter along which F varies most in this box.
+            // Split the parameter along which F varies most in this box,
+            // or time alone once the box surely holds a root: then only the
+            // time needs narrowing to the tolerance.
             let spread = |axis: usize| {
                 let bit = 4 >> axis;
                 (0..8)
@@ -366,9 +420,18 @@ impl CcdScratch {
                     .map(|i| (values[i | bit] - values[i]).abs().max_element())
                     .fold(0.0, f64::max)
             };
-            let axis = (0..3)
-                .max_by(|&x, &y| spread(x).total_cmp(&spread(y)))
-                .unwrap_or(0);
+            let inside = !P::SIMPLEX || d[1][1] + d[2][1] <= 1.0;
+            let axis = if inside && holds_a_root(&values, bounds[0]) {
+                if spread(0) <= options.tolerance {
+                    best = Some(d[0][0]);
+                    continue;
+                }
+                0
+            } else {
+                (0..3)
+                    .max_by(|&x, &y| spread(x).total_cmp(&spread(y)))
+                    .unwrap_or(0)
+            };
             let [a, b] = d[axis];
             let mid = 0.5 * (a + b);
             if !(a < mid && mid < b) {
