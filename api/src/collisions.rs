@@ -24,7 +24,7 @@ pub enum CollisionKind {
     Continuous,
 }
 
-#[derive(Clone, Debug, Default, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CollisionRequest {
     #[serde(default)]

@@ -7,6 +7,7 @@ use frusta_engine::acoustics::SimulationOptions;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+use crate::collisions::{CollisionRequest, CollisionResponse};
 use crate::impulse_responses::{PairResponse, Point};
 use crate::objects::EditReport;
 pub use crate::objects::ObjectMove;
@@ -29,6 +30,12 @@ pub struct StreamUpdate {
     pub options: Option<SimulationOptions>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub objects: Option<Vec<ObjectMove>>,
+    /// Subscribes to collision results, replacing an earlier subscription:
+    /// answered after every update and every edit of the scene, a
+    /// continuous query over this update's object moves. Its `moves` must
+    /// be empty (moves go in `objects`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub collisions: Option<CollisionRequest>,
 }
 
 /// A text frame from the server.
@@ -39,6 +46,8 @@ pub enum StreamFrame {
     ImpulseResponse(StreamAnswer),
     /// Object moves sent before any source and listener, applied.
     ObjectsUpdated(ObjectsUpdated),
+    /// The collision subscription's answer for this update.
+    Collisions(StreamCollisions),
     /// An update that was refused, or a job that failed; the stream stays
     /// open. Nested, not flattened: the problem has a `type` of its own.
     Error { problem: Problem },
@@ -56,6 +65,18 @@ pub struct StreamAnswer {
     pub objects: Vec<EditReport>,
     #[serde(flatten)]
     pub pair: PairResponse,
+}
+
+/// Collisions on a stream: the collision route's answer plus what the
+/// stream adds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct StreamCollisions {
+    /// The `seq` of the newest update this answer includes.
+    pub seq: Option<u64>,
+    /// What each object move of this update did to the hierarchy.
+    pub objects: Vec<EditReport>,
+    #[serde(flatten)]
+    pub collisions: CollisionResponse,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]

@@ -27,7 +27,7 @@ pub const MAX_CONTACTS: usize = 100_000;
 const MAX_ITEMS: usize = 4096;
 
 /// What to test, with objects resolved to indices.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Plan {
     kind: CollisionKind,
     query: Query,
@@ -36,7 +36,7 @@ pub struct Plan {
     max_contacts: usize,
 }
 
-#[derive(Debug)]
+#[derive(Clone, Copy, Debug)]
 enum Query {
     Discrete,
     Proximity(f64),

@@ -3,6 +3,7 @@
 
 use frusta_client::api::collisions::{CollisionKind, CollisionRequest};
 use frusta_client::api::objects::{ObjectMove, ObjectPatch};
+use frusta_client::api::stream::StreamUpdate;
 use frusta_tests::*;
 use serde_json::json;
 
@@ -100,4 +101,72 @@ fn bad_collision_queries_are_4xx_problems_and_store_nothing() {
     assert_eq!(server.post("/v1/scenes/none/collisions", "{}").0, 404);
     let (_, _, detail) = server.get("/v1/scenes/crates");
     assert_eq!(detail["revision"], 0);
+}
+
+#[test]
+fn a_stream_subscribed_to_collisions_answers_each_move_with_its_contacts() {
+    let data = DataDir::new("collide-stream");
+    let server = Server::start(&data);
+    server.post("/v1/scenes", CRATES);
+    let mut stream = server.client().stream("crates").expect("connect");
+    let subscribe = StreamUpdate {
+        seq: Some(1),
+        collisions: Some(CollisionRequest {
+            kind: CollisionKind::Continuous,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    stream.send(&subscribe).unwrap();
+    let first = stream.collisions_for(1).unwrap();
+    assert_eq!((first.collisions.total, first.collisions.revision), (0, 0));
+    // b slides halfway to a (no contact), then on through it.
+    for (seq, x, meets) in [(2, -0.5, false), (3, -1.5, true)] {
+        let update = StreamUpdate {
+            seq: Some(seq),
+            objects: Some(shift_b(x)),
+            ..Default::default()
+        };
+        stream.send(&update).unwrap();
+        let answer = stream.collisions_for(seq).unwrap();
+        assert_eq!(answer.objects.len(), 1, "the move is reported");
+        assert_eq!(
+            answer.collisions.earliest_time.is_some(),
+            meets,
+            "{answer:?}"
+        );
+        if meets {
+            // From x = 2.5 (b's near face) to 1.5, a's face at 2 is met
+            // halfway.
+            let t = answer.collisions.earliest_time.unwrap();
+            assert!(t <= 0.5 && t > 0.5 - 1e-4, "{t}");
+        }
+    }
+    // Moves in the subscription itself are refused; the stream stays open.
+    let wrong = StreamUpdate {
+        seq: Some(4),
+        collisions: Some(CollisionRequest {
+            moves: shift_b(0.0),
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    stream.send(&wrong).unwrap();
+    assert!(stream.collisions_for(4).is_err());
+    // Someone else moves b back out: the stream answers with no contact.
+    let (status, _, _) = server.patch(
+        "/v1/scenes/crates/objects/b",
+        r#"{"translation": [0, 0, 0]}"#,
+    );
+    assert_eq!(status, 200);
+    loop {
+        match stream.read().unwrap() {
+            frusta_client::Received::Collisions(c) if c.collisions.revision == 3 => {
+                assert_eq!(c.collisions.total, 0);
+                break;
+            }
+            _ => {}
+        }
+    }
+    stream.close().unwrap();
 }

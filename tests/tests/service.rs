@@ -158,7 +158,7 @@ fn update(seq: u64, listener: [f32; 3]) -> StreamUpdate {
         sources: point([2.0, 3.0, 1.5]),
         listeners: point(listener),
         options: options(json!({"max_order": 3, "sample_rate": 16000})),
-        objects: None,
+        ..Default::default()
     }
 }
 
@@ -335,7 +335,7 @@ fn updates_faster_than_the_engine_coalesce_newest_first() {
             sources: point(source(seq)),
             listeners: point([4.0, 6.0, 1.5]),
             options: options(json!({"max_order": 5, "sampling": 16, "sample_rate": 8000})),
-            objects: None,
+            ..Default::default()
         };
         stream.send(&update).expect("send");
     }

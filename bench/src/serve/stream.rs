@@ -51,7 +51,7 @@ pub fn run(
             sources: Some(vec![source.into()]),
             listeners: Some(vec![listener.into()]),
             options: Some(options.simulation()),
-            objects: None,
+            ..Default::default()
         };
         let t = Instant::now();
         stream.send(&update).map_err(|e| e.to_string())?;

@@ -55,7 +55,7 @@ impl Client<'_> {
                 listeners: Some(vec![self.listener(at).into()]),
                 // Options once: later updates keep them.
                 options: (seq == 1).then(|| self.options().simulation()),
-                objects: None,
+                ..Default::default()
             };
             if door && self.below(2) == 0 {
                 let patch = ObjectPatch {

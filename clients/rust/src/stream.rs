@@ -4,7 +4,9 @@
 
 use std::net::TcpStream;
 
-use frusta_api::stream::{ObjectsUpdated, StreamAnswer, StreamFrame, StreamUpdate};
+use frusta_api::stream::{
+    ObjectsUpdated, StreamAnswer, StreamCollisions, StreamFrame, StreamUpdate,
+};
 use frusta_api::Problem;
 use frusta_engine::acoustics::signal::ImpulseResponse;
 use tungstenite::client::IntoClientRequest;
@@ -28,6 +30,8 @@ pub enum Received {
         samples: ImpulseResponse,
     },
     ObjectsUpdated(ObjectsUpdated),
+    /// The collision subscription's answer.
+    Collisions(Box<StreamCollisions>),
     /// A refused update; the stream stays open.
     Error(Problem),
     /// The server's Close frame: 1000 when the scene was deleted, 1001 when
@@ -116,6 +120,7 @@ impl Stream {
                     }
                 }
                 StreamFrame::ObjectsUpdated(updated) => Received::ObjectsUpdated(updated),
+                StreamFrame::Collisions(found) => Received::Collisions(Box::new(found)),
                 StreamFrame::Error { problem } => Received::Error(problem),
             });
         }
@@ -130,13 +135,32 @@ impl Stream {
                 Received::ImpulseResponse { answer, samples } if answer.seq == Some(seq) => {
                     return Ok((*answer, samples))
                 }
-                Received::ImpulseResponse { .. } | Received::ObjectsUpdated(_) => {}
+                Received::ImpulseResponse { .. }
+                | Received::ObjectsUpdated(_)
+                | Received::Collisions(_) => {}
                 Received::Error(problem) => return Err(Error::Frame(problem)),
                 Received::Closed { reason, .. } => {
                     return Err(Error::Protocol(format!(
                         "the server closed the stream: {reason}"
                     )))
                 }
+            }
+        }
+    }
+
+    /// Reads until the collisions answering update `seq`, skipping other
+    /// frames, as [`answer_to`](Self::answer_to) does.
+    pub fn collisions_for(&mut self, seq: u64) -> Result<StreamCollisions, Error> {
+        loop {
+            match self.read()? {
+                Received::Collisions(found) if found.seq == Some(seq) => return Ok(*found),
+                Received::Error(problem) => return Err(Error::Frame(problem)),
+                Received::Closed { reason, .. } => {
+                    return Err(Error::Protocol(format!(
+                        "the server closed the stream: {reason}"
+                    )))
+                }
+                _ => {}
             }
         }
     }

@@ -17,6 +17,12 @@
 //! (the fields of the HTTP route's responses), then a binary frame of
 //! interleaved little-endian f32 samples. Object moves sent before any
 //! source and listener are answered with `{"type": "objects_updated", ...}`.
+//! An update may subscribe to collisions, `{"collisions": {<a collision
+//! request without moves>}}`; from then on every answer starts with
+//! `{"type": "collisions", "seq", "objects", ...}` (the fields of the
+//! collision route's answer), a continuous query sweeping over the update's
+//! own object moves. A stream may subscribe to impulse responses (by
+//! sending sources and listeners), to collisions, or to both.
 //! Errors are text frames `{"type": "error", "problem": <problem
 //! document>}`; the stream stays open.
 
@@ -27,13 +33,17 @@ use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Path, State};
 use axum::response::Response;
 use axum::Extension;
+use frusta_api::collisions::CollisionResponse;
 use frusta_api::objects::EditReport;
-use frusta_api::stream::{ObjectsUpdated, StreamAnswer, StreamFrame, StreamUpdate};
+use frusta_api::stream::{
+    ObjectsUpdated, StreamAnswer, StreamCollisions, StreamFrame, StreamUpdate,
+};
 use frusta_engine::acoustics::{self, BeamCache, Cancel};
 use tokio::sync::{mpsc, OwnedSemaphorePermit};
 
 use crate::app::AppState;
 use crate::auth::Caller;
+use crate::collide::{self, Plan};
 use crate::error::{ApiError, Problem};
 use crate::registry::{ObjectEdit, SceneEntry};
 use crate::routes::objects::{edit_of, object_index};
@@ -84,6 +94,8 @@ struct Pending {
     /// field winning, so a client outpacing the engine queues only the
     /// latest state.
     objects: Vec<(usize, ObjectEdit)>,
+    /// A new collision subscription.
+    collisions: Option<Plan>,
     /// Something changed since the last answer.
     dirty: bool,
 }
@@ -93,6 +105,7 @@ struct Computed {
     revision: u64,
     compute_ms: f64,
     objects: Vec<EditReport>,
+    collisions: Option<CollisionResponse>,
     responses: Vec<acoustics::Response>,
 }
 
@@ -106,6 +119,8 @@ struct Stream {
     pending: Pending,
     /// The last request simulated, which updates modify.
     current: Option<IrRequest>,
+    /// The collision subscription, answered with every update.
+    collisions: Option<Plan>,
     /// Absent while a job owns it.
     cache: Option<BeamCache>,
     /// The newest scene revision answered for.
@@ -130,6 +145,7 @@ impl Stream {
             _permit: permit,
             pending: Pending::default(),
             current: None,
+            collisions: None,
             cache: Some(BeamCache::with_max_beams(max_beams)),
             answered: None,
             cancel: Cancel::new(),
@@ -178,7 +194,8 @@ impl Stream {
                     let revision = *revisions.borrow_and_update();
                     match (changed, revision) {
                         (Ok(()), Some(r)) => {
-                            if self.answered.is_some_and(|a| a < r) && self.current.is_some() {
+                            let subscribed = self.current.is_some() || self.collisions.is_some();
+                            if self.answered.is_some_and(|a| a < r) && subscribed {
                                 self.pending.dirty = true;
                             }
                         }
@@ -226,6 +243,15 @@ impl Stream {
             edit.check(&self.entry.read().scene.objects[index].mesh)?;
             edits.push((index, edit));
         }
+        let collisions = match &update.collisions {
+            Some(c) if !c.moves.is_empty() => {
+                return Err(ApiError::Invalid(
+                    "collisions: a stream sends its moves in `objects`, not `moves`".into(),
+                ))
+            }
+            Some(c) => Some(collide::plan(&self.entry, c)?),
+            None => None,
+        };
         let request = match (sources, listeners) {
             (Some(sources), Some(listeners)) => {
                 let request = IrRequest {
@@ -248,19 +274,28 @@ impl Stream {
                 None => self.pending.objects.push((object, edit)),
             }
         }
+        if collisions.is_some() {
+            self.pending.collisions = collisions;
+        }
         self.pending.seq = update.seq.or(self.pending.seq);
         self.pending.dirty = self.pending.request.is_some()
             || self.current.is_some()
+            || self.pending.collisions.is_some()
+            || self.collisions.is_some()
             || !self.pending.objects.is_empty();
         Ok(())
     }
 
     /// Hands the pending update to the compute pool.
     fn start_job(&mut self, done: mpsc::Sender<JobResult>) {
-        let pending = std::mem::take(&mut self.pending);
-        if let Some(r) = pending.request {
+        let mut pending = std::mem::take(&mut self.pending);
+        if let Some(r) = pending.request.take() {
             self.current = Some(r);
         }
+        if let Some(c) = pending.collisions.take() {
+            self.collisions = Some(c);
+        }
+        let collisions = self.collisions.clone();
         // Without sources and listeners yet, object moves still apply.
         let request = self.current.clone();
         let Some(mut cache) = self.cache.take() else {
@@ -275,12 +310,19 @@ impl Stream {
             let job = move || {
                 let start = Instant::now();
                 let result = (|| {
-                    let objects = if pending.objects.is_empty() {
-                        Vec::new()
-                    } else {
-                        job_state
-                            .registry()
-                            .edit_objects(&entry, &pending.objects)?
+                    let (objects, collisions) = match &collisions {
+                        Some(plan) => {
+                            let (objects, found) =
+                                collide::run(job_state.registry(), &entry, plan, &pending.objects)?;
+                            (objects, Some(found))
+                        }
+                        None if pending.objects.is_empty() => (Vec::new(), None),
+                        None => (
+                            job_state
+                                .registry()
+                                .edit_objects(&entry, &pending.objects)?,
+                            None,
+                        ),
                     };
                     for report in &objects {
                         job_state.metrics().count_update(report.action.as_str());
@@ -297,6 +339,7 @@ impl Stream {
                         revision,
                         compute_ms: start.elapsed().as_secs_f64() * 1e3,
                         objects,
+                        collisions,
                         responses,
                     })
                 })();
@@ -316,6 +359,17 @@ impl Stream {
         computed: Computed,
     ) -> Result<(), axum::Error> {
         self.answered = Some(computed.revision);
+        if let Some(collisions) = computed.collisions {
+            let frame = StreamFrame::Collisions(StreamCollisions {
+                seq: computed.seq,
+                objects: computed.objects.clone(),
+                collisions,
+            });
+            socket.send(text(&frame)).await?;
+            if computed.responses.is_empty() {
+                return Ok(());
+            }
+        }
         if computed.responses.is_empty() {
             let moved = StreamFrame::ObjectsUpdated(ObjectsUpdated {
                 seq: computed.seq,

@@ -30,7 +30,7 @@ pub fn run(client: &Client, scene_id: &str, args: &IrArgs) -> Result<(), Box<dyn
         sources: Some(request.sources),
         listeners: Some(request.listeners),
         options: Some(request.options),
-        objects: None,
+        ..Default::default()
     })?;
     let (answer, samples) = stream.answer_to(0)?;
     stream.close()?;

@@ -60,7 +60,7 @@ pub fn run(client: &Client, args: &StreamArgs) -> Result<(), Box<dyn Error>> {
             sources: Some(vec![sim.source.into()]),
             listeners: Some(vec![sim.listener.lerp(to, t).into()]),
             options: Some(options.clone()),
-            objects: None,
+            ..Default::default()
         };
         let sent = Instant::now();
         stream.send(&update)?;

@@ -24,6 +24,8 @@
 //! smaller, so near misses far below f64's resolution are still told from
 //! contacts.
 
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 use std::ops::{Add, Mul, Sub};
 
 use glam::DVec3;
@@ -356,102 +358,163 @@ impl EdgeEdge {
     }
 }
 
-/// The search's stack of parameter boxes, kept between tests so that a
-/// test allocates nothing once the stack has grown.
+/// The search's boxes, kept between tests so that a test allocates
+/// nothing once they have grown.
 #[derive(Debug, Default)]
 pub struct CcdScratch {
+    /// Boxes of the first phase, depth first.
     stack: Vec<Domain>,
+    /// Boxes of the second phase by earliest time first, then deepest
+    /// first; `t ≥ 0`, so the bits of `t` order as the numbers do.
+    queue: BinaryHeap<(Reverse<u64>, u32, Boxed)>,
+}
+
+/// A parameter box in the queue, with the order the heap needs (ties
+/// between equal times are broken arbitrarily but deterministically).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Boxed(Domain);
+
+impl Eq for Boxed {}
+
+impl PartialOrd for Boxed {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Boxed {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        let key = |d: &Domain| d.map(|r| r.map(f64::to_bits));
+        key(&self.0).cmp(&key(&other.0))
+    }
+}
+
+/// What one box of the search comes to.
+enum Step {
+    /// No root in it.
+    Apart,
+    /// Within the tolerance (or too small to split): a contact at its
+    /// earliest time.
+    Contact,
+    /// Its two halves, earlier first where it was split in time.
+    Split([Domain; 2]),
+}
+
+/// Decides one box: apart, a contact, or split along the parameter along
+/// which F varies most (time alone once the box surely holds a root: then
+/// only the time needs narrowing to the tolerance).
+fn step<P: Primitives>(
+    primitives: &P,
+    d: &Domain,
+    bounds: &[DVec3; 2],
+    options: &CcdOptions,
+) -> Step {
+    let values: [V<f64>; 8] = primitives.corners(d);
+    if box_is_apart(primitives, d, &values, bounds) {
+        return Step::Apart;
+    }
+    let values = values.map(DVec3::from_array);
+    let (lo, hi) = values
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(*v), hi.max(*v))
+        });
+    let tolerance = DVec3::splat(options.tolerance) - bounds[0];
+    if lo.cmpge(-tolerance).all() && hi.cmple(tolerance).all() {
+        return Step::Contact;
+    }
+    let spread = |axis: usize| {
+        let bit = 4 >> axis;
+        (0..8)
+            .filter(|i| i & bit == 0)
+            .map(|i| (values[i | bit] - values[i]).abs().max_element())
+            .fold(0.0, f64::max)
+    };
+    let inside = !P::SIMPLEX || d[1][1] + d[2][1] <= 1.0;
+    let axis = if inside && holds_a_root(&values, bounds[0]) {
+        if spread(0) <= options.tolerance {
+            return Step::Contact;
+        }
+        0
+    } else {
+        (0..3)
+            .max_by(|&x, &y| spread(x).total_cmp(&spread(y)))
+            .unwrap_or(0)
+    };
+    let [a, b] = d[axis];
+    let mid = 0.5 * (a + b);
+    if !(a < mid && mid < b) {
+        return Step::Contact;
+    }
+    let (mut early, mut late) = (*d, *d);
+    early[axis] = [a, mid];
+    late[axis] = [mid, b];
+    Step::Split([early, late])
 }
 
 impl CcdScratch {
-    /// Depth first, earlier half first, with the earliest time of a box
-    /// found within the tolerance as a bound: boxes that start later are
-    /// skipped, and those that end later are cut to end there, so that once
-    /// a contact is found only earlier ones are looked for (a search by
-    /// earliest time instead spreads over every box of a contact set, such
-    /// as parallel edges meeting along a segment). The answer is at most
-    /// the earliest root's time: a box holding a root is never dropped.
+    /// Finds the earliest contact in two phases. First depth first, earlier
+    /// half first, to a first contact: quick, and it does not spread over
+    /// a contact set that fills a range of parameters at one time (such as
+    /// parallel edges meeting along a segment), as a search by earliest
+    /// box does. Its time bounds the answer, but depth first it need not be
+    /// the earliest (the earlier half in u can be the later in time), so
+    /// the boxes left, cut to end there, are then searched earliest first:
+    /// the first contact of that phase is the answer. A box holding a root
+    /// is never dropped, so the answer is at most the earliest root's time.
     fn search<P: Primitives>(&mut self, primitives: &P, options: &CcdOptions) -> Option<f64> {
         let size = magnitude(primitives.points());
         let bounds = [
             rounding::<f64>(size, P::OPERATIONS),
             rounding::<TwoFloat>(size, P::OPERATIONS),
         ];
-        let tolerance = DVec3::splat(options.tolerance) - bounds[0];
+        let in_domain = |d: &Domain| !P::SIMPLEX || d[1][0] + d[2][0] <= 1.0;
         self.stack.clear();
+        self.queue.clear();
         self.stack.push([[0.0, 1.0]; 3]);
-        let mut best: Option<f64> = None;
         let mut examined = 0u32;
-        while let Some(mut d) = self.stack.pop() {
-            if let Some(b) = best {
-                if d[0][0] >= b {
-                    continue;
-                }
-                d[0][1] = d[0][1].min(b);
-            }
+        let mut first = None;
+        while let Some(d) = self.stack.pop() {
             examined += 1;
             if examined > options.max_boxes {
                 // Out of work: nothing earlier than the earliest box left
                 // is excluded.
-                let left = self.stack.iter().map(|d| d[0][0]).fold(d[0][0], f64::min);
-                return Some(best.map_or(left, |b| b.min(left)));
+                return Some(self.stack.iter().map(|d| d[0][0]).fold(d[0][0], f64::min));
             }
-            let values: [V<f64>; 8] = primitives.corners(&d);
-            if box_is_apart(primitives, &d, &values, &bounds) {
-                continue;
-            }
-            let values = values.map(DVec3::from_array);
-            let (lo, hi) = values
-                .iter()
-                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
-                    (lo.min(*v), hi.max(*v))
-                });
-            if lo.cmpge(-tolerance).all() && hi.cmple(tolerance).all() {
-                best = Some(d[0][0]);
-                continue;
-            }
-            // Split the parameter along which F varies most in this box,
-            // or time alone once the box surely holds a root: then only the
-            // time needs narrowing to the tolerance.
-            let spread = |axis: usize| {
-                let bit = 4 >> axis;
-                (0..8)
-                    .filter(|i| i & bit == 0)
-                    .map(|i| (values[i | bit] - values[i]).abs().max_element())
-                    .fold(0.0, f64::max)
-            };
-            let inside = !P::SIMPLEX || d[1][1] + d[2][1] <= 1.0;
-            let axis = if inside && holds_a_root(&values, bounds[0]) {
-                if spread(0) <= options.tolerance {
-                    best = Some(d[0][0]);
-                    continue;
+            match step(primitives, &d, &bounds, options) {
+                Step::Apart => {}
+                Step::Contact => {
+                    first = Some(d[0][0]);
+                    break;
                 }
-                0
-            } else {
-                (0..3)
-                    .max_by(|&x, &y| spread(x).total_cmp(&spread(y)))
-                    .unwrap_or(0)
-            };
-            let [a, b] = d[axis];
-            let mid = 0.5 * (a + b);
-            if !(a < mid && mid < b) {
-                // The box cannot be split further in f64: count it as a
-                // contact.
-                best = Some(d[0][0]);
-                continue;
-            }
-            // The later half first onto the stack, so the earlier is taken
-            // first.
-            for half in [[mid, b], [a, mid]] {
-                let mut child = d;
-                child[axis] = half;
-                if P::SIMPLEX && child[1][0] + child[2][0] > 1.0 {
-                    continue;
+                Step::Split([early, late]) => {
+                    self.stack
+                        .extend([late, early].into_iter().filter(in_domain));
                 }
-                self.stack.push(child);
             }
         }
-        best
+        let best = first?;
+        let key = |d: &Domain, depth: u32| (Reverse(d[0][0].to_bits()), depth, Boxed(*d));
+        self.queue.extend(self.stack.drain(..).map(|d| key(&d, 0)));
+        while let Some((_, depth, Boxed(mut d))) = self.queue.pop() {
+            if d[0][0] >= best {
+                break;
+            }
+            examined += 1;
+            if examined > options.max_boxes {
+                return Some(d[0][0]);
+            }
+            d[0][1] = d[0][1].min(best);
+            match step(primitives, &d, &bounds, options) {
+                Step::Apart => {}
+                Step::Contact => return Some(d[0][0]),
+                Step::Split(halves) => {
+                    let halves = halves.into_iter().filter(in_domain);
+                    self.queue.extend(halves.map(|h| key(&h, depth + 1)));
+                }
+            }
+        }
+        Some(best)
     }
 }
 
@@ -569,6 +632,53 @@ mod tests {
         assert!(toi_ee(&parallel(0.0)).is_some());
         assert!(toi_ee(&parallel(1.0)).is_some(), "end touches end");
         assert_eq!(toi_ee(&parallel(1.001)), None);
+    }
+
+    #[test]
+    fn an_edge_end_sliding_along_another_edge_meets_it_first_at_its_end() {
+        // b's lower end slides along a's line and reaches a's end at 0.5;
+        // the two touch at every later time too.
+        let e = EdgeEdge {
+            a: [
+                still(DVec3::new(1.0, 1.0, 1.0)),
+                still(DVec3::new(2.0, 1.0, 1.0)),
+            ],
+            b: [
+                [DVec3::new(2.5, 1.0, 1.0), DVec3::new(1.5, 1.0, 1.0)],
+                [DVec3::new(2.5, 2.0, 2.0), DVec3::new(1.5, 2.0, 2.0)],
+            ],
+        };
+        let t = toi_ee(&e).expect("touches");
+        assert!(t <= 0.5 && t > 0.5 - 1e-5, "{t}");
+    }
+
+    #[test]
+    fn parallel_edges_meeting_along_a_segment_meet_when_they_reach_each_other() {
+        let a = [
+            still(DVec3::new(2.0, 1.0, 1.0)),
+            still(DVec3::new(2.0, 2.0, 1.0)),
+        ];
+        let sliding = |p: DVec3| [p, p - DVec3::new(1.5, 0.0, 0.0)];
+        let b = [
+            sliding(DVec3::new(3.0, 1.0, 1.0)),
+            sliding(DVec3::new(3.0, 2.0, 1.0)),
+        ];
+        let t = toi_ee(&EdgeEdge { a, b }).expect("meet");
+        assert!(t <= 2.0 / 3.0 && t > 2.0 / 3.0 - 1e-5, "{t}");
+    }
+
+    #[test]
+    fn a_vertex_sliding_in_the_face_plane_meets_it_where_it_enters() {
+        let q = VertexFace {
+            vertex: [DVec3::new(2.5, 1.0, 1.0), DVec3::new(1.5, 1.0, 1.0)],
+            face: [
+                still(DVec3::new(1.0, 1.0, 1.0)),
+                still(DVec3::new(2.0, 1.0, 1.0)),
+                still(DVec3::new(2.0, 1.0, 2.0)),
+            ],
+        };
+        let t = toi_vf(&q).expect("enters the face");
+        assert!(t <= 0.5 && t > 0.5 - 1e-5, "{t}");
     }
 
     #[test]
