@@ -9,11 +9,8 @@ use frusta_api::collisions::{
     CollisionKind, CollisionRequest, CollisionResponse, TriangleContact, TriangleRef,
 };
 use frusta_api::objects::{EditReport, ObjectMove};
-use frusta_engine::bvh::SceneBvh;
-use frusta_engine::collision::continuous::{
-    self_sweep_contacts, sweep_contacts, CcdOptions, EndPose, Sweep,
-};
-use frusta_engine::collision::{object_contacts, object_proximity, self_contacts, Contact};
+use frusta_engine::collision::continuous::EndPose;
+use frusta_engine::collision::{all_pairs, CollisionQuery, CollisionTest, Found};
 
 use crate::error::ApiError;
 use crate::registry::{LiveScene, ObjectEdit, PreparedEdit, Registry, SceneEntry};
@@ -26,25 +23,13 @@ pub const MAX_CONTACTS: usize = 100_000;
 /// Most pairs, self objects or moves in one request.
 const MAX_ITEMS: usize = 4096;
 
-/// What to test, with objects resolved to indices.
+/// A request resolved to the engine's query, with objects by index.
 #[derive(Clone, Debug)]
 pub struct Plan {
     kind: CollisionKind,
-    query: Query,
-    pairs: Vec<(u32, u32)>,
-    selves: Vec<u32>,
+    query: CollisionQuery,
     max_contacts: usize,
 }
-
-#[derive(Clone, Copy, Debug)]
-enum Query {
-    Discrete,
-    Proximity(f64),
-    Continuous(Option<f64>),
-}
-
-/// A contact found, with its distance (proximity) or time (continuous).
-type Found = (Contact, Option<f64>, Option<f64>);
 
 fn invalid(field: &str, reason: impl Into<String>) -> ApiError {
     ApiError::from_engine(frusta_engine::Error::InvalidOption {
@@ -62,44 +47,26 @@ pub fn plan(entry: &SceneEntry, request: &CollisionRequest) -> Result<Plan, ApiE
             format!("{max_contacts} is more than {MAX_CONTACTS}"),
         ));
     }
-    let query = match request.kind {
-        CollisionKind::Discrete => Query::Discrete,
+    let test = match request.kind {
+        CollisionKind::Discrete => CollisionTest::Discrete,
         CollisionKind::Proximity => match request.distance {
-            Some(d) if d.is_finite() && d >= 0.0 => Query::Proximity(d),
-            Some(d) => {
-                return Err(invalid(
-                    "distance",
-                    format!("{d} is not a distance of at least 0"),
-                ))
-            }
+            Some(distance) => CollisionTest::Proximity { distance },
             None => return Err(invalid("distance", "a proximity query needs a distance")),
         },
-        CollisionKind::Continuous => match request.tolerance {
-            Some(t) if !(t.is_finite() && t > 0.0) => {
-                return Err(invalid(
-                    "tolerance",
-                    format!("{t} is not a positive distance"),
-                ))
-            }
-            t => Query::Continuous(t),
+        CollisionKind::Continuous => CollisionTest::Continuous {
+            tolerance: request.tolerance,
         },
     };
-    if request.distance.is_some() && !matches!(query, Query::Proximity(_)) {
+    if request.distance.is_some() && request.kind != CollisionKind::Proximity {
         return Err(invalid(
             "distance",
             "only a proximity query takes a distance",
         ));
     }
-    if request.tolerance.is_some() && !matches!(query, Query::Continuous(_)) {
+    if request.tolerance.is_some() && request.kind != CollisionKind::Continuous {
         return Err(invalid(
             "tolerance",
             "only a continuous query takes a tolerance",
-        ));
-    }
-    if matches!(query, Query::Proximity(_)) && !request.self_objects.is_empty() {
-        return Err(invalid(
-            "self",
-            "proximity has no self form: neighbouring triangles always touch",
         ));
     }
     let pairs_given = request.pairs.as_ref().map_or(0, Vec::len);
@@ -119,23 +86,9 @@ pub fn plan(entry: &SceneEntry, request: &CollisionRequest) -> Result<Plan, ApiE
     let pairs = match &request.pairs {
         Some(pairs) => pairs
             .iter()
-            .map(|[a, b]| {
-                let (a, b) = (index(a)?, index(b)?);
-                if a == b {
-                    return Err(invalid(
-                        "pairs",
-                        format!("object #{a} paired with itself: ask for it in `self`"),
-                    ));
-                }
-                Ok((a.min(b), a.max(b)))
-            })
-            .collect::<Result<Vec<_>, _>>()?,
-        None if request.self_objects.is_empty() => {
-            let n = entry.object_names.len() as u32;
-            (0..n)
-                .flat_map(|a| (a + 1..n).map(move |b| (a, b)))
-                .collect()
-        }
+            .map(|[a, b]| Ok((index(a)?, index(b)?)))
+            .collect::<Result<Vec<_>, ApiError>>()?,
+        None if request.self_objects.is_empty() => all_pairs(entry.object_names.len()),
         None => Vec::new(),
     };
     let selves = request
@@ -143,11 +96,17 @@ pub fn plan(entry: &SceneEntry, request: &CollisionRequest) -> Result<Plan, ApiE
         .iter()
         .map(|name| index(name))
         .collect::<Result<Vec<_>, _>>()?;
+    let query = CollisionQuery {
+        test,
+        pairs,
+        selves,
+    };
+    query
+        .check(entry.object_names.len())
+        .map_err(ApiError::from_engine)?;
     Ok(Plan {
         kind: request.kind,
         query,
-        pairs,
-        selves,
         max_contacts,
     })
 }
@@ -173,102 +132,20 @@ pub fn edits(
         .collect()
 }
 
-/// Discrete and proximity contacts in the world as it is.
-fn contacts_now(world: &SceneBvh, plan: &Plan) -> Vec<Found> {
-    let mut found = Vec::new();
-    for &(a, b) in &plan.pairs {
-        match plan.query {
-            Query::Proximity(d) => found.extend(
-                object_proximity(world, a, b, d)
-                    .expect("planned objects exist")
-                    .into_iter()
-                    .map(|(c, d)| (c, Some(d), None)),
-            ),
-            _ => found.extend(
-                object_contacts(world, a, b)
-                    .expect("planned objects exist")
-                    .into_iter()
-                    .map(|c| (c, None, None)),
-            ),
-        }
-    }
-    for &o in &plan.selves {
-        found.extend(
-            self_contacts(world, o)
-                .expect("planned objects exist")
-                .into_iter()
-                .map(|c| (c, None, None)),
-        );
-    }
-    found
-}
-
-/// Continuous contacts over the motion from the scene as it is to the
-/// prepared edits, earliest first.
-fn contacts_during(
-    live: &LiveScene,
-    edits: &[PreparedEdit],
-    plan: &Plan,
-    tolerance: Option<f64>,
-) -> Result<Vec<Found>, ApiError> {
-    let world = live.acoustic.bvh();
-    let size = world.bounds().extent().max_element() as f64;
-    let options = CcdOptions {
-        tolerance: tolerance.unwrap_or(1e-6 * size.max(f64::from(f32::MIN_POSITIVE))),
-        ..CcdOptions::default()
-    };
-    let mut involved: Vec<u32> = plan
-        .pairs
+/// The prepared edits as the end poses of a step.
+fn ends<'a>(live: &'a LiveScene, edits: &'a [PreparedEdit]) -> Vec<(u32, EndPose<'a>)> {
+    edits
         .iter()
-        .flat_map(|&(a, b)| [a, b])
-        .chain(plan.selves.iter().copied())
-        .collect();
-    involved.sort_unstable();
-    involved.dedup();
-    let sweeps = involved
-        .iter()
-        .map(|&o| {
-            let edit = edits.iter().find(|e| e.object == o as usize);
-            let now = &live.scene.objects[o as usize].transform;
-            let end = match edit {
-                Some(PreparedEdit {
-                    mesh: Some(mesh),
-                    transform,
-                    ..
-                }) => EndPose::Deformed(mesh, transform.as_ref().unwrap_or(now)),
-                Some(PreparedEdit {
-                    transform: Some(t), ..
-                }) => EndPose::Moved(t),
-                _ => EndPose::Stays,
+        .map(|e| {
+            let now = &live.scene.objects[e.object].transform;
+            let end = match (&e.mesh, &e.transform) {
+                (Some(mesh), t) => EndPose::Deformed(mesh, t.as_ref().unwrap_or(now)),
+                (None, Some(t)) => EndPose::Moved(t),
+                (None, None) => EndPose::Stays,
             };
-            Sweep::new(world, o, end, &options)
+            (e.object as u32, end)
         })
-        .collect::<frusta_engine::Result<Vec<_>>>()
-        .map_err(ApiError::from_engine)?;
-    let sweep = |o: u32| &sweeps[involved.binary_search(&o).expect("swept")];
-    let mut found: Vec<Found> = Vec::new();
-    for &(a, b) in &plan.pairs {
-        let (sa, sb) = (sweep(a), sweep(b));
-        if sa.bounds().overlaps(&sb.bounds()) {
-            found.extend(
-                sweep_contacts(sa, sb, &options)
-                    .into_iter()
-                    .map(|c| (c.contact, None, Some(c.time))),
-            );
-        }
-    }
-    for &o in &plan.selves {
-        found.extend(
-            self_sweep_contacts(sweep(o), &options)
-                .into_iter()
-                .map(|c| (c.contact, None, Some(c.time))),
-        );
-    }
-    found.sort_by(|x, y| {
-        let time = |f: &Found| f.2.unwrap_or(0.0);
-        time(x).total_cmp(&time(y)).then(x.0.cmp(&y.0))
-    });
-    Ok(found)
+        .collect()
 }
 
 fn answer(
@@ -279,7 +156,7 @@ fn answer(
 ) -> CollisionResponse {
     let max = plan.max_contacts;
     let total = found.len();
-    let earliest_time = found.iter().filter_map(|f| f.2).reduce(f64::min);
+    let earliest_time = found.iter().filter_map(|f| f.time).reduce(f64::min);
     found.truncate(max);
     let name = |(object, triangle): (u32, u32)| TriangleRef {
         object: entry.object_names[object as usize].clone(),
@@ -290,11 +167,11 @@ fn answer(
         kind: plan.kind,
         contacts: found
             .into_iter()
-            .map(|(c, distance, time)| TriangleContact {
-                a: name(c.a),
-                b: name(c.b),
-                distance,
-                time,
+            .map(|f| TriangleContact {
+                a: name(f.contact.a),
+                b: name(f.contact.b),
+                distance: f.distance,
+                time: f.time,
             })
             .collect(),
         total,
@@ -312,26 +189,36 @@ pub fn run(
     plan: &Plan,
     edits: &[(usize, ObjectEdit)],
 ) -> Result<(Vec<EditReport>, CollisionResponse), ApiError> {
+    let engine = ApiError::from_engine;
     if edits.is_empty() {
         let live = entry.read();
-        let found = match plan.query {
-            Query::Continuous(tolerance) => contacts_during(&live, &[], plan, tolerance)?,
-            _ => contacts_now(live.acoustic.bvh(), plan),
-        };
+        let found = plan.query.run(live.acoustic.bvh()).map_err(engine)?;
         return Ok((Vec::new(), answer(entry, &live, plan, found)));
     }
-    registry.edit_objects_around(
+    // A continuous query runs before the edits (over the step they make),
+    // the others after them.
+    let continuous = matches!(plan.query.test, CollisionTest::Continuous { .. });
+    let (reports, answered) = registry.edit_objects_around(
         entry,
         edits,
-        |before, prepared| match plan.query {
-            Query::Continuous(tolerance) => {
-                contacts_during(before, prepared, plan, tolerance).map(Some)
-            }
-            _ => Ok(None),
+        |before, prepared| {
+            continuous
+                .then(|| {
+                    let ends = ends(before, prepared);
+                    plan.query.run_during(before.acoustic.bvh(), &ends)
+                })
+                .transpose()
+                .map_err(engine)
         },
         |after, during| {
-            let found = during.unwrap_or_else(|| contacts_now(after.acoustic.bvh(), plan));
-            answer(entry, after, plan, found)
+            let found = match during {
+                Some(found) => Ok(found),
+                None => plan.query.run(after.acoustic.bvh()),
+            };
+            found.map(|found| answer(entry, after, plan, found))
         },
-    )
+    )?;
+    // The query was checked with the plan, so it cannot fail once the
+    // edits are applied.
+    Ok((reports, answered.map_err(engine)?))
 }

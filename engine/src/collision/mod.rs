@@ -6,6 +6,7 @@
 pub mod continuous;
 mod discrete;
 mod distance;
+mod query;
 mod triangle;
 
 use std::ops::ControlFlow;
@@ -14,6 +15,7 @@ use glam::{DQuat, DVec3, Vec3, Vec3A};
 
 pub use discrete::{object_contacts, object_proximity, self_contacts, world_contacts, Contact};
 pub use distance::triangle_distance;
+pub use query::{all_pairs, CollisionQuery, CollisionTest, Found};
 pub use triangle::triangles_intersect;
 
 use crate::bvh::traverse::pair::self_overlapping_leaves;
