@@ -2,6 +2,7 @@
 //! touch, come close, or meet during a motion, optionally after moving
 //! objects in the same atomic step.
 
+use frusta_engine::collision::Found;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -99,4 +100,40 @@ pub struct TriangleRef {
     pub object: String,
     /// Triangle index in the object's mesh.
     pub triangle: u32,
+}
+
+impl CollisionResponse {
+    /// The answer for `found` (in the engine's order) on a scene whose
+    /// objects are `names`, listing at most `max` contacts.
+    pub fn new(
+        revision: u64,
+        kind: CollisionKind,
+        mut found: Vec<Found>,
+        names: &[String],
+        max: usize,
+    ) -> Self {
+        let total = found.len();
+        let earliest_time = found.iter().filter_map(|f| f.time).reduce(f64::min);
+        found.truncate(max);
+        let name = |(object, triangle): (u32, u32)| TriangleRef {
+            object: names[object as usize].clone(),
+            triangle,
+        };
+        Self {
+            revision,
+            kind,
+            contacts: found
+                .into_iter()
+                .map(|f| TriangleContact {
+                    a: name(f.contact.a),
+                    b: name(f.contact.b),
+                    distance: f.distance,
+                    time: f.time,
+                })
+                .collect(),
+            total,
+            truncated: total > max,
+            earliest_time,
+        }
+    }
 }

@@ -5,9 +5,7 @@
 
 use std::collections::HashSet;
 
-use frusta_api::collisions::{
-    CollisionKind, CollisionRequest, CollisionResponse, TriangleContact, TriangleRef,
-};
+use frusta_api::collisions::{CollisionKind, CollisionRequest, CollisionResponse};
 use frusta_api::objects::{EditReport, ObjectMove};
 use frusta_engine::collision::continuous::EndPose;
 use frusta_engine::collision::{all_pairs, CollisionQuery, CollisionTest, Found};
@@ -152,32 +150,16 @@ fn answer(
     entry: &SceneEntry,
     live: &LiveScene,
     plan: &Plan,
-    mut found: Vec<Found>,
+    found: Vec<Found>,
 ) -> CollisionResponse {
-    let max = plan.max_contacts;
-    let total = found.len();
-    let earliest_time = found.iter().filter_map(|f| f.time).reduce(f64::min);
-    found.truncate(max);
-    let name = |(object, triangle): (u32, u32)| TriangleRef {
-        object: entry.object_names[object as usize].clone(),
-        triangle,
-    };
-    CollisionResponse {
-        revision: live.acoustic.revision(),
-        kind: plan.kind,
-        contacts: found
-            .into_iter()
-            .map(|f| TriangleContact {
-                a: name(f.contact.a),
-                b: name(f.contact.b),
-                distance: f.distance,
-                time: f.time,
-            })
-            .collect(),
-        total,
-        truncated: total > max,
-        earliest_time,
-    }
+    let revision = live.acoustic.revision();
+    CollisionResponse::new(
+        revision,
+        plan.kind,
+        found,
+        &entry.object_names,
+        plan.max_contacts,
+    )
 }
 
 /// Runs `plan` on the scene as it is, or with `edits` applied and stored

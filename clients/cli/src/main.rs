@@ -3,6 +3,7 @@
 //! same work on its scenes.
 
 mod auralize;
+mod collide;
 mod info;
 mod ir;
 mod progress;
@@ -22,10 +23,11 @@ use glam::Vec3;
 #[command(
     name = "frusta",
     version,
-    about = "Inspect frusta scenes, trace rays, compute impulse responses, offline or on a frusta server"
+    about = "Inspect frusta scenes, trace rays, compute impulse responses and collisions, offline or on a frusta server"
 )]
 struct Cli {
-    /// The frusta server for `scenes`, `stream` and `ir --scene-id`, e.g.
+    /// The frusta server for `scenes`, `stream`, `ir --scene-id` and
+    /// `collide --scene-id`, e.g.
     /// `http://127.0.0.1:8080`; offline commands ignore it.
     #[arg(long, global = true, env = "FRUSTA_SERVER", value_name = "URL")]
     server: Option<String>,
@@ -67,6 +69,9 @@ enum Command {
     /// Impulse response from a source to a listener by frustum tracing,
     /// here or (with `--scene-id`) on the server.
     Ir(Box<ir::IrArgs>),
+    /// Which triangles touch, come within a distance, or meet while objects
+    /// move, here or (with `--scene-id`) on the server.
+    Collide(Box<collide::CollideArgs>),
     /// The server's scenes (needs `--server`).
     Scenes {
         #[command(subcommand)]
@@ -118,6 +123,10 @@ fn main() -> ExitCode {
         Command::Ir(args) => match &args.scene_id {
             Some(id) => server().and_then(|s| remote::ir::run(&s, id, args)),
             None => ir::run(args),
+        },
+        Command::Collide(args) => match &args.scene_id {
+            Some(id) => server().and_then(|s| collide::run_remote(&s, id, args)),
+            None => collide::run(args),
         },
         Command::Scenes { command } => server().and_then(|s| remote::scenes::run(&s, command)),
         Command::Stream(args) => server().and_then(|s| remote::stream::run(&s, args)),

@@ -343,3 +343,47 @@ fn listed(server: &Server, id: &str) -> serde_json::Value {
         .unwrap_or_else(|| panic!("{id} is not listed: {list}"))
         .clone()
 }
+
+/// Two closed 1 m crates, a metre apart along x.
+const CRATES: &str = r#"{
+  "name": "crates",
+  "materials": {"wood": {"absorption": 0.1}},
+  "objects": [
+    {"name": "a", "material": "wood", "mesh": {"box_room": {"min": [1, 1, 1], "max": [2, 2, 2]}}},
+    {"name": "b", "material": "wood", "mesh": {"box_room": {"min": [3, 1, 1], "max": [4, 2, 2]}}}
+  ]
+}"#;
+
+#[test]
+fn collide_answers_alike_here_and_on_the_server() {
+    let server = Server::start();
+    let doc = server.file("crates.json", CRATES);
+    let id = stdout(&server.frusta(&["scenes", "upload", path_str(&doc)]));
+    assert_eq!(id.trim(), "crates");
+    let sweep = [
+        "collide",
+        "--kind",
+        "continuous",
+        "--move",
+        "b=-1.5,0,0",
+        "--json",
+    ];
+    let here = stdout_json(&server.frusta(&[&sweep[..], &["--scene", path_str(&doc)]].concat()));
+    let there = stdout_json(&server.frusta(&[&sweep[..], &["--scene-id", "crates"]].concat()));
+    let t = here["earliest_time"].as_f64().expect("the crates meet");
+    assert!(t <= 2.0 / 3.0 && t > 2.0 / 3.0 - 1e-4, "{t}");
+    assert_eq!(here["contacts"], there["contacts"]);
+    assert_eq!(here["total"], there["total"]);
+    assert_eq!(there["revision"], 1, "the move is stored on the server");
+    // After the move the crates overlap there; here the file is unmoved.
+    let after = stdout(&server.frusta(&["collide", "--scene-id", "crates"]));
+    assert!(!after.trim_end().ends_with(" 0 contacts"), "{after}");
+    let here = stdout(&server.frusta(&["collide", "--scene", path_str(&doc)]));
+    assert_eq!(here.trim(), "0 contacts");
+    let bad = server.frusta(&["collide", "--scene-id", "crates", "--pair", "a,c"]);
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("Unknown object"),
+        "{bad:?}"
+    );
+}
