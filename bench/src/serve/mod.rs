@@ -233,8 +233,11 @@ fn phases(args: &Args, base: &str, in_process: bool) -> Result<Vec<Row>, String>
     let mut rows = Vec::new();
     let mut push = |mut row: Row| {
         if in_process {
-            row.peak_rss_mib = server::status_mib("self", "VmHWM");
+            // The current size first: the peak, read after it, is at least
+            // that (the other way round, the server's threads could grow
+            // the process between the two reads: seen in CI).
             row.rss_after_mib = server::status_mib("self", "VmRSS");
+            row.peak_rss_mib = server::status_mib("self", "VmHWM");
             row.threads = Some(rayon::current_num_threads());
         }
         // JSON lines go out as each phase ends; the table waits for all.
