@@ -1,8 +1,11 @@
 //! Discrete collision over the world against brute force: every pair of
 //! triangles of different objects tested, without any hierarchy.
 
+mod common;
+
 use std::collections::BTreeSet;
 
+use common::object;
 use frusta_engine::bvh::{BuildOptions, SceneBvh};
 use frusta_engine::collision::{
     object_contacts, object_proximity, self_contacts, triangle_distance, triangles_intersect,
@@ -11,16 +14,6 @@ use frusta_engine::collision::{
 use frusta_engine::geometry::{shapes, RigidTransform, TriangleMesh};
 use frusta_engine::scene::{Material, Scene, SceneObject};
 use glam::{DQuat, DVec3, Quat, Vec3};
-
-fn object(name: &str, mesh: TriangleMesh, transform: RigidTransform) -> SceneObject {
-    SceneObject {
-        name: name.into(),
-        materials: vec![0; mesh.triangle_count()],
-        mesh,
-        transform,
-        dynamic: true,
-    }
-}
 
 /// A room, two balls through each other, a ring around one of them, a
 /// cube resting exactly on the floor (touching, which counts) and a ball

@@ -3,8 +3,11 @@
 //! that intersects at some instant must be reported, no later than that
 //! instant; a pair reported must come close at some instant.
 
+mod common;
+
 use std::collections::BTreeMap;
 
+use common::object;
 use frusta_engine::bvh::{BuildOptions, SceneBvh};
 use frusta_engine::collision::continuous::{
     self_sweep_contacts, sweep_contacts, CcdOptions, EndPose, Sweep,
@@ -13,16 +16,6 @@ use frusta_engine::collision::{triangle_distance, triangles_intersect};
 use frusta_engine::geometry::{shapes, RigidTransform, TriangleMesh};
 use frusta_engine::scene::{Material, Scene, SceneObject};
 use glam::{DQuat, DVec3, Quat, Vec3};
-
-fn object(name: &str, mesh: TriangleMesh, transform: RigidTransform) -> SceneObject {
-    SceneObject {
-        name: name.into(),
-        materials: vec![0; mesh.triangle_count()],
-        mesh,
-        transform,
-        dynamic: true,
-    }
-}
 
 fn world_of(objects: Vec<SceneObject>) -> (Scene, SceneBvh) {
     let scene = Scene {
@@ -83,6 +76,16 @@ fn sampled_contacts(
         }
     }
     first
+}
+
+/// Every sampled contact is reported, no later than it was sampled.
+fn assert_reported_in_time(found: &BTreeMap<(u32, u32), f64>, sampled: &BTreeMap<(u32, u32), f64>) {
+    for (pair, s) in sampled {
+        let t = found
+            .get(pair)
+            .unwrap_or_else(|| panic!("{pair:?} missed (meets at {s})"));
+        assert!(*t <= s + 1e-9, "{pair:?} reported at {t}, meets at {s}");
+    }
 }
 
 /// Closest approach of two moving triangles over fine instants.
@@ -165,12 +168,7 @@ fn swept_contacts_hold_every_sampled_contact_and_no_distant_pair() {
     );
     let sampled = sampled_contacts((&a.0, &a.1), (&b.0, &b.1), |_, _| false);
     assert!(sampled.len() > 20, "{} sampled contacts", sampled.len());
-    for (pair, s) in &sampled {
-        let t = found
-            .get(pair)
-            .unwrap_or_else(|| panic!("{pair:?} missed (meets at {s})"));
-        assert!(*t <= s + 1e-9, "{pair:?} reported at {t}, meets at {s}");
-    }
+    assert_reported_in_time(&found, &sampled);
     for &(x, y) in found.keys() {
         let (x, y) = (x as usize, y as usize);
         let d = closest_approach((&a.0[x], &a.1[x]), (&b.0[y], &b.1[y]));
@@ -231,10 +229,5 @@ fn a_folded_sheet_passing_through_itself_meets_itself_and_a_still_one_does_not()
     let share = |x: usize, y: usize| triangles[x].iter().any(|v| triangles[y].contains(v));
     let sampled = sampled_contacts((&start, &end), (&start, &end), |x, y| x >= y || share(x, y));
     assert!(sampled.len() > 20, "{} sampled contacts", sampled.len());
-    for (pair, s) in &sampled {
-        let t = found
-            .get(pair)
-            .unwrap_or_else(|| panic!("{pair:?} missed (meets at {s})"));
-        assert!(*t <= s + 1e-9, "{pair:?} reported at {t}, meets at {s}");
-    }
+    assert_reported_in_time(&found, &sampled);
 }

@@ -233,11 +233,16 @@ fn phases(args: &Args, base: &str, in_process: bool) -> Result<Vec<Row>, String>
     let mut rows = Vec::new();
     let mut push = |mut row: Row| {
         if in_process {
-            // The current size first: the peak, read after it, is at least
-            // that (the other way round, the server's threads could grow
-            // the process between the two reads: seen in CI).
-            row.rss_after_mib = server::status_mib("self", "VmRSS");
-            row.peak_rss_mib = server::status_mib("self", "VmHWM");
+            // The kernel's RSS counters are per-CPU approximations, so a
+            // peak read a moment after the current size was seen below it
+            // (in CI): the peak reported is at least the size seen.
+            let after = server::status_mib("self", "VmRSS");
+            let peak = server::status_mib("self", "VmHWM");
+            row.rss_after_mib = after;
+            row.peak_rss_mib = match (peak, after) {
+                (Some(p), Some(a)) => Some(p.max(a)),
+                (p, a) => p.or(a),
+            };
             row.threads = Some(rayon::current_num_threads());
         }
         // JSON lines go out as each phase ends; the table waits for all.

@@ -2,7 +2,8 @@
 #![allow(dead_code)]
 
 use frusta_engine::bvh::{BuildMethod, BuildOptions};
-use frusta_engine::geometry::TriangleMesh;
+use frusta_engine::geometry::{RigidTransform, TriangleMesh};
+use frusta_engine::scene::SceneObject;
 use glam::{Quat, Vec3};
 
 /// A small deterministic generator (SplitMix64), so tests need no crate.
@@ -55,4 +56,16 @@ pub fn deformed(mesh: &TriangleMesh, f: impl Fn(Vec3) -> Vec3) -> TriangleMesh {
 /// `mesh` rotated, scaled and moved.
 pub fn placed(mesh: &TriangleMesh, rotation: Quat, scale: f32, offset: Vec3) -> TriangleMesh {
     deformed(mesh, |p| rotation * (p * scale) + offset)
+}
+
+/// A dynamic object of `mesh` placed by `transform`, every triangle of
+/// material 0.
+pub fn object(name: &str, mesh: TriangleMesh, transform: RigidTransform) -> SceneObject {
+    SceneObject {
+        name: name.into(),
+        materials: vec![0; mesh.triangle_count()],
+        mesh,
+        transform,
+        dynamic: true,
+    }
 }
