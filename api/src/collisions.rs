@@ -86,6 +86,12 @@ pub struct CollisionResponse {
 pub struct TriangleContact {
     pub a: TriangleRef,
     pub b: TriangleRef,
+    /// Discrete only: where the triangles meet, in the world, metres: the
+    /// two ends of the segment they share (one point where they touch at a
+    /// point), or the corners of the polygon they share where coplanar.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Vec<[f64; 3]>>)]
+    pub points: Option<Vec<[f64; 3]>>,
     /// Proximity only: the triangles' distance, metres (0 where they
     /// intersect).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -127,6 +133,8 @@ impl CollisionResponse {
                 .map(|f| TriangleContact {
                     a: name(f.contact.a),
                     b: name(f.contact.b),
+                    points: (kind == CollisionKind::Discrete)
+                        .then(|| f.points.iter().map(|p| p.to_array()).collect()),
                     distance: f.distance,
                     time: f.time,
                 })

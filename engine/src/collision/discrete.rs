@@ -6,9 +6,10 @@ use std::ops::ControlFlow;
 
 use glam::{DVec3, Vec3, Vec3A};
 
+use super::contact::contact_points;
 use super::distance::triangle_distance;
 use super::triangle::triangles_intersect;
-use super::{for_each_self_candidate, world_corners};
+use super::{for_each_self_candidate, world_corners, world_point};
 use crate::bvh::SceneBvh;
 use crate::Result;
 
@@ -57,13 +58,22 @@ fn for_each_candidate(
 /// sorted: the pair walk of their trees finds the candidates, and each is
 /// decided exactly ([`triangles_intersect`]) on the world coordinates.
 pub fn object_contacts(world: &SceneBvh, a: u32, b: u32) -> Result<Vec<Contact>> {
+    Ok(object_contacts_at(world, a, b)?
+        .into_iter()
+        .map(|(c, _)| c)
+        .collect())
+}
+
+/// [`object_contacts`] with where each pair meets, in the world
+/// ([`contact_points`]).
+pub fn object_contacts_at(world: &SceneBvh, a: u32, b: u32) -> Result<Vec<(Contact, Vec<DVec3>)>> {
     let mut contacts = Vec::new();
     for_each_candidate(world, a, b, 0.0, |contact, wa, wb| {
         if triangles_intersect(wa, wb) {
-            contacts.push(contact);
+            contacts.push((contact, contact_points(wa, wb)));
         }
     })?;
-    contacts.sort_unstable();
+    contacts.sort_unstable_by_key(|c| c.0);
     Ok(contacts)
 }
 
@@ -90,6 +100,15 @@ pub fn world_contacts(world: &SceneBvh) -> Vec<Contact> {
 /// where the coordinates are exact: self-intersection does not change when
 /// an object moves rigidly.
 pub fn self_contacts(world: &SceneBvh, object: u32) -> Result<Vec<Contact>> {
+    Ok(self_contacts_at(world, object)?
+        .into_iter()
+        .map(|(c, _)| c)
+        .collect())
+}
+
+/// [`self_contacts`] with where each pair meets, in the world
+/// ([`contact_points`]).
+pub fn self_contacts_at(world: &SceneBvh, object: u32) -> Result<Vec<(Contact, Vec<DVec3>)>> {
     let count = world.object_count();
     let inst = world
         .instances()
@@ -97,21 +116,27 @@ pub fn self_contacts(world: &SceneBvh, object: u32) -> Result<Vec<Contact>> {
         .ok_or_else(|| crate::Error::UnknownObject(format!("#{object} (the scene has {count})")))?;
     let tris = inst.bvh().leaf_triangles();
     let ids = inst.bvh().prim_ids();
+    let to_world = world_point(inst.to_world());
     let exact = |t: &[Vec3A; 3]| t.map(|p| Vec3::from(p).as_dvec3());
     let adjacent = |x: &[Vec3A; 3], y: &[Vec3A; 3]| x.iter().any(|p| y.contains(p));
     let mut contacts = Vec::new();
     let mut test = |x: usize, y: usize| {
-        if !adjacent(&tris[x], &tris[y]) && triangles_intersect(&exact(&tris[x]), &exact(&tris[y]))
-        {
+        let (tx, ty) = (exact(&tris[x]), exact(&tris[y]));
+        if !adjacent(&tris[x], &tris[y]) && triangles_intersect(&tx, &ty) {
             let (p, q) = (ids[x].min(ids[y]), ids[x].max(ids[y]));
-            contacts.push(Contact {
+            let contact = Contact {
                 a: (object, p),
                 b: (object, q),
-            });
+            };
+            let points = contact_points(&tx, &ty)
+                .into_iter()
+                .map(&to_world)
+                .collect();
+            contacts.push((contact, points));
         }
     };
     for_each_self_candidate(inst.bvh().wide(), &mut test);
-    contacts.sort_unstable();
+    contacts.sort_unstable_by_key(|c| c.0);
     Ok(contacts)
 }
 

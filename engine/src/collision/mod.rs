@@ -3,6 +3,7 @@
 //! triangle–triangle decisions for the narrow one; continuous queries over
 //! a step of motion in [`continuous`].
 
+mod contact;
 pub mod continuous;
 mod discrete;
 mod distance;
@@ -13,7 +14,11 @@ use std::ops::ControlFlow;
 
 use glam::{DQuat, DVec3, Vec3, Vec3A};
 
-pub use discrete::{object_contacts, object_proximity, self_contacts, world_contacts, Contact};
+pub use contact::contact_points;
+pub use discrete::{
+    object_contacts, object_contacts_at, object_proximity, self_contacts, self_contacts_at,
+    world_contacts, Contact,
+};
 pub use distance::triangle_distance;
 pub use query::{all_pairs, CollisionQuery, CollisionTest, Found};
 pub use triangle::triangles_intersect;
@@ -24,21 +29,18 @@ use crate::geometry::RigidTransform;
 
 /// An object-to-world motion in f64, so that two objects' triangles meet
 /// in one frame with rounding far below the broad phase's padding.
-pub(crate) fn world_corners(to_world: &RigidTransform) -> impl Fn(&[Vec3A; 3]) -> [DVec3; 3] {
+pub(crate) fn world_point(to_world: &RigidTransform) -> impl Fn(DVec3) -> DVec3 {
     let q = to_world.rotation;
     let rotation = DQuat::from_xyzw(q.x.into(), q.y.into(), q.z.into(), q.w.into()).normalize();
     let shift = to_world.translation.as_dvec3();
     let identity = to_world.is_identity();
-    move |t: &[Vec3A; 3]| {
-        t.map(|p| {
-            let p = Vec3::from(p).as_dvec3();
-            if identity {
-                p
-            } else {
-                rotation * p + shift
-            }
-        })
-    }
+    move |p| if identity { p } else { rotation * p + shift }
+}
+
+/// [`world_point`] for the corners of a triangle as the trees store them.
+pub(crate) fn world_corners(to_world: &RigidTransform) -> impl Fn(&[Vec3A; 3]) -> [DVec3; 3] {
+    let moved = world_point(to_world);
+    move |t: &[Vec3A; 3]| t.map(|p| moved(Vec3::from(p).as_dvec3()))
 }
 
 /// Calls `test(x, y)` for every pair of distinct leaf slots `x < y` of

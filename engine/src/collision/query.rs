@@ -3,8 +3,10 @@
 //! it is or over a step of motion. What the service and the command line
 //! answer, in one place.
 
+use glam::DVec3;
+
 use super::continuous::{self_sweep_contacts, sweep_contacts, CcdOptions, EndPose, Sweep};
-use super::{object_contacts, object_proximity, self_contacts, Contact};
+use super::{object_contacts_at, object_proximity, self_contacts_at, Contact};
 use crate::bvh::SceneBvh;
 use crate::{Error, Result};
 
@@ -31,11 +33,13 @@ pub struct CollisionQuery {
     pub selves: Vec<u32>,
 }
 
-/// A contact found, with its distance (proximity) or earliest time
-/// (continuous).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A contact found, with where the triangles meet (discrete), their
+/// distance (proximity) or the earliest time they meet (continuous).
+#[derive(Clone, Debug, PartialEq)]
 pub struct Found {
     pub contact: Contact,
+    /// Discrete: [`super::contact_points`] in the world.
+    pub points: Vec<DVec3>,
     pub distance: Option<f64>,
     pub time: Option<f64>,
 }
@@ -122,16 +126,17 @@ impl CollisionQuery {
                     found.extend(object_proximity(world, a, b, distance)?.into_iter().map(
                         |(contact, d)| Found {
                             contact,
+                            points: Vec::new(),
                             distance: Some(d),
                             time: None,
                         },
                     ))
                 }
-                _ => found.extend(object_contacts(world, a, b)?.into_iter().map(discrete)),
+                _ => found.extend(object_contacts_at(world, a, b)?.into_iter().map(discrete)),
             }
         }
         for &o in &self.selves {
-            found.extend(self_contacts(world, o)?.into_iter().map(discrete));
+            found.extend(self_contacts_at(world, o)?.into_iter().map(discrete));
         }
         Ok(found)
     }
@@ -170,6 +175,7 @@ impl CollisionQuery {
         let sweep = |o: u32| &sweeps[involved.binary_search(&o).expect("swept")];
         let timed = |c: super::continuous::SweptContact| Found {
             contact: c.contact,
+            points: Vec::new(),
             distance: None,
             time: Some(c.time),
         };
@@ -195,9 +201,10 @@ impl CollisionQuery {
     }
 }
 
-fn discrete(contact: Contact) -> Found {
+fn discrete((contact, points): (Contact, Vec<DVec3>)) -> Found {
     Found {
         contact,
+        points,
         distance: None,
         time: None,
     }

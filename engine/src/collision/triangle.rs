@@ -26,7 +26,7 @@ fn c3(p: DVec3) -> Coord3D<f64> {
 }
 
 /// Sign of the orientation of `d` against the plane `a, b, c`.
-fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i8 {
+pub(super) fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i8 {
     sign(orient3d(c3(a), c3(b), c3(c), c3(d)))
 }
 

@@ -112,6 +112,13 @@ mod tests {
         assert!(objects(&out)
             .iter()
             .all(|p| p == &("panel".into(), "probe".into())));
+        // Where they meet lies in the panel's plane, x = 4.
+        for c in out["contacts"].as_array().unwrap() {
+            let points = c["points"].as_array().unwrap();
+            assert!(!points.is_empty() && points.len() <= 2, "{c}");
+            let on_panel = |p: &Value| (p[0].as_f64().unwrap() - 4.0).abs() < 1e-5;
+            assert!(points.iter().all(on_panel), "{c}");
+        }
         let server = server.restart();
         let (_, _, detail) = server.send(get("/v1/scenes/s")).await;
         assert_eq!(detail["objects"][2]["translation"], json!([1.0, 0.0, 0.0]));
