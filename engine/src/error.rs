@@ -45,7 +45,7 @@ pub enum Error {
     InvalidScene(String),
     #[error("{field} {reason}")]
     InvalidOption { field: String, reason: String },
-    #[error("{what} position {value} is not finite")]
+    #[error("{what} position {value} is not finite or lies beyond 1e15 m")]
     InvalidPosition { what: String, value: String },
     #[error("{0}")]
     LimitExceeded(String),

@@ -842,3 +842,21 @@ fn paths_through_a_wall_edge_are_counted_once() {
         assert_eq!(paths.len(), box_image_count(order), "listener {l}");
     }
 }
+
+#[test]
+fn sources_and_listeners_beyond_the_coordinate_range_are_refused() {
+    let scene = AcousticScene::new(&shoebox(0.1));
+    let options = SimulationOptions::default();
+    let inside = Vec3::new(2.0, 2.0, 1.0);
+    for far in [Vec3::new(0.0, 1e16, 0.0), Vec3::new(-3e38, 1.0, 1.0)] {
+        for (sources, listeners) in [([far], [inside]), ([inside], [far])] {
+            let e = simulate(&scene, &sources, &listeners, &options).unwrap_err();
+            assert!(
+                matches!(e, frusta_engine::Error::InvalidPosition { .. }),
+                "{e}"
+            );
+        }
+    }
+    let edge = Vec3::new(1e15, 1.0, 1.0);
+    assert!(scene.check_point("source", edge).is_ok());
+}

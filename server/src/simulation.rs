@@ -10,6 +10,7 @@ use frusta_engine::acoustics::signal::Channels;
 use frusta_engine::acoustics::{
     simulate_cached, simulate_until, BeamCache, Cancel, Response, SimulationOptions,
 };
+use frusta_engine::geometry::MAX_COORDINATE;
 use glam::Vec3;
 use serde_json::{Map, Value};
 
@@ -118,11 +119,11 @@ pub fn positions(name: &str, list: &[Point]) -> Result<Vec<Vec3>, ApiError> {
         .enumerate()
         .map(|(i, p)| {
             let v = Vec3::from_array(p.position);
-            if v.is_finite() {
+            if v.is_finite() && v.abs().max_element() <= MAX_COORDINATE {
                 Ok(v)
             } else {
                 Err(ApiError::Invalid(format!(
-                    "{name}[{i}].position {:?} is not finite",
+                    "{name}[{i}].position {:?} must be finite and within 1e15 m of the origin",
                     p.position
                 )))
             }

@@ -11,7 +11,7 @@ use super::path::{dedup_paths, validate, Event, ValidPath};
 use super::surfaces::Surfaces;
 use super::tracer::{trace, trace_beams, TraceInput, TraceOptions, TraceStats};
 use crate::bvh::{BuildOptions, UpdateReport};
-use crate::geometry::{RigidTransform, TriangleMesh};
+use crate::geometry::{RigidTransform, TriangleMesh, MAX_COORDINATE};
 use crate::query::SceneBvh;
 use crate::scene::{check_material_table, Material, MaterialId, Scene};
 use crate::{Error, Result};
@@ -135,9 +135,12 @@ impl AcousticScene {
         self.changed(result)
     }
 
-    /// Checks that a source or listener position can be simulated.
+    /// Checks that a source or listener position can be simulated: finite
+    /// and within [`MAX_COORDINATE`] of the origin on every axis, as mesh
+    /// vertices are (the schema fuzzer's sources at 1e16 to 3e38 m made the
+    /// tracer fail in an edited shoebox).
     pub fn check_point(&self, what: &str, p: Vec3) -> Result<DVec3> {
-        if !p.is_finite() {
+        if !p.is_finite() || p.abs().max_element() > MAX_COORDINATE {
             return Err(Error::InvalidPosition {
                 what: what.into(),
                 value: p.to_string(),

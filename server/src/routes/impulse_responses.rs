@@ -180,7 +180,11 @@ mod tests {
             ),
             (
                 format!(r#"{{"sources": {s}, "listeners": [{{"position": [1e39, 0, 0]}}]}}"#),
-                "not finite",
+                "must be finite",
+            ),
+            (
+                format!(r#"{{"sources": [{{"position": [0, 2e15, 0]}}], "listeners": {s}}}"#),
+                "within 1e15 m",
             ),
             (
                 format!(r#"{{"sources": {s}, "listeners": {s}, "max_order": 99}}"#),
