@@ -178,6 +178,8 @@ fn stream_move(client: &Client, id: &str, yz: [f32; 2]) -> Sent {
     }
     let sent = match stream.read() {
         Ok(Received::ObjectsUpdated(_)) => Sent::Done,
+        // The plain stop closes streams (1001) with an update in flight.
+        Ok(Received::Closed { .. }) => Sent::Cut,
         Ok(Received::Error(problem)) => Sent::Refused(problem.to_string()),
         Ok(other) => Sent::Refused(format!("{other:?}")),
         Err(_) => Sent::Cut,

@@ -44,8 +44,9 @@ pub type Flow = ControlFlow<()>;
 ///
 /// Keys order the walk (smaller first) and are compared with the bound the
 /// leaf callbacks maintain: a box whose key exceeds the bound is skipped.
-/// A test must prune empty boxes (minimum above maximum), which pad the
-/// wide nodes' unused slots.
+/// A test should prune empty boxes (minimum above maximum), which pad the
+/// wide nodes' unused slots; the walks skip those slots anyway, since a
+/// test whose planes or ray hold NaN can keep any box.
 pub trait NodeTest {
     /// Whether the walk should visit kept boxes in key order. Queries that
     /// must see every overlap (all hits, broad phases) say `false` and save

@@ -48,6 +48,13 @@ impl Bvh4 {
             while mask != 0 {
                 let s = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
+                // Empty slots whatever the test says: a test with NaN in its
+                // planes (a frustum from a source at 3e38 m) kept their
+                // empty boxes, and the slot's marker read as a leaf out of
+                // bounds.
+                if self.nodes[node].child[s] == u32::MAX {
+                    continue;
+                }
                 kept[k] = (child_ref(&self.nodes[node], node, s), keys[s]);
                 k += 1;
             }
@@ -85,5 +92,44 @@ impl Bvh4 {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::{BuildOptions, MeshBvh};
+    use crate::geometry::{shapes, Aabb};
+
+    /// Keeps every box, empty or not, as a test with NaN planes does.
+    struct Everything;
+
+    impl NodeTest for Everything {
+        fn test(&self, _: &Aabb, _: f32) -> Option<f32> {
+            Some(0.0)
+        }
+    }
+
+    #[test]
+    fn empty_slots_are_skipped_whatever_the_test_keeps() {
+        // Three triangles: the root has empty slots.
+        let mesh = shapes::cube(1.0, 1);
+        let mesh = crate::geometry::TriangleMesh::new(
+            mesh.positions().to_vec(),
+            mesh.triangles()[..3].to_vec(),
+        )
+        .unwrap();
+        let bvh = MeshBvh::build(&mesh, &BuildOptions::default());
+        assert!(bvh
+            .wide()
+            .nodes()
+            .iter()
+            .any(|n| n.child.contains(&u32::MAX)));
+        let mut seen = 0;
+        bvh.wide().walk(&Everything, f32::INFINITY, |_, count, _| {
+            seen += count;
+            Flow::Continue(())
+        });
+        assert_eq!(seen, 3);
     }
 }
