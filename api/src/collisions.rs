@@ -2,7 +2,7 @@
 //! touch, come close, or meet during a motion, optionally after moving
 //! objects in the same atomic step.
 
-use frusta_engine::collision::Found;
+use frusta_engine::collision::{all_pairs, CollisionQuery, CollisionTest, Found};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -143,5 +143,76 @@ impl CollisionResponse {
             truncated: total > max,
             earliest_time,
         }
+    }
+}
+
+/// The object called `name` among `names`, or the one at that index when
+/// `name` is all digits and no object has it as its name.
+pub fn object_by_name(names: &[String], name: &str) -> Result<u32, frusta_engine::Error> {
+    names
+        .iter()
+        .position(|n| n == name)
+        .or_else(|| name.parse::<usize>().ok().filter(|&i| i < names.len()))
+        .map(|i| i as u32)
+        .ok_or_else(|| {
+            frusta_engine::Error::UnknownObject(format!(
+                "`{name}` (the scene has {} objects)",
+                names.len()
+            ))
+        })
+}
+
+impl CollisionRequest {
+    /// The engine's query for this request (its moves aside) on a scene
+    /// whose objects are `names`, checked: the server and the command line
+    /// read a request alike.
+    pub fn query(&self, names: &[String]) -> Result<CollisionQuery, frusta_engine::Error> {
+        let invalid = |field: &str, reason: &str| frusta_engine::Error::InvalidOption {
+            field: field.into(),
+            reason: reason.into(),
+        };
+        let test = match self.kind {
+            CollisionKind::Discrete => CollisionTest::Discrete,
+            CollisionKind::Proximity => CollisionTest::Proximity {
+                distance: self
+                    .distance
+                    .ok_or_else(|| invalid("distance", "a proximity query needs a distance"))?,
+            },
+            CollisionKind::Continuous => CollisionTest::Continuous {
+                tolerance: self.tolerance,
+            },
+        };
+        if self.distance.is_some() && self.kind != CollisionKind::Proximity {
+            return Err(invalid(
+                "distance",
+                "only a proximity query takes a distance",
+            ));
+        }
+        if self.tolerance.is_some() && self.kind != CollisionKind::Continuous {
+            return Err(invalid(
+                "tolerance",
+                "only a continuous query takes a tolerance",
+            ));
+        }
+        let pairs = match &self.pairs {
+            Some(pairs) => pairs
+                .iter()
+                .map(|[a, b]| Ok((object_by_name(names, a)?, object_by_name(names, b)?)))
+                .collect::<Result<Vec<_>, frusta_engine::Error>>()?,
+            None if self.self_objects.is_empty() => all_pairs(names.len()),
+            None => Vec::new(),
+        };
+        let selves = self
+            .self_objects
+            .iter()
+            .map(|name| object_by_name(names, name))
+            .collect::<Result<Vec<_>, _>>()?;
+        let query = CollisionQuery {
+            test,
+            pairs,
+            selves,
+        };
+        query.check(names.len())?;
+        Ok(query)
     }
 }

@@ -8,7 +8,7 @@ use std::collections::HashSet;
 use frusta_api::collisions::{CollisionKind, CollisionRequest, CollisionResponse};
 use frusta_api::objects::{EditReport, ObjectMove};
 use frusta_engine::collision::continuous::EndPose;
-use frusta_engine::collision::{all_pairs, CollisionQuery, CollisionTest, Found};
+use frusta_engine::collision::{CollisionQuery, CollisionTest, Found};
 
 use crate::error::ApiError;
 use crate::registry::{LiveScene, ObjectEdit, PreparedEdit, Registry, SceneEntry};
@@ -45,28 +45,6 @@ pub fn plan(entry: &SceneEntry, request: &CollisionRequest) -> Result<Plan, ApiE
             format!("{max_contacts} is more than {MAX_CONTACTS}"),
         ));
     }
-    let test = match request.kind {
-        CollisionKind::Discrete => CollisionTest::Discrete,
-        CollisionKind::Proximity => match request.distance {
-            Some(distance) => CollisionTest::Proximity { distance },
-            None => return Err(invalid("distance", "a proximity query needs a distance")),
-        },
-        CollisionKind::Continuous => CollisionTest::Continuous {
-            tolerance: request.tolerance,
-        },
-    };
-    if request.distance.is_some() && request.kind != CollisionKind::Proximity {
-        return Err(invalid(
-            "distance",
-            "only a proximity query takes a distance",
-        ));
-    }
-    if request.tolerance.is_some() && request.kind != CollisionKind::Continuous {
-        return Err(invalid(
-            "tolerance",
-            "only a continuous query takes a tolerance",
-        ));
-    }
     let pairs_given = request.pairs.as_ref().map_or(0, Vec::len);
     for (field, count) in [
         ("pairs", pairs_given),
@@ -80,27 +58,8 @@ pub fn plan(entry: &SceneEntry, request: &CollisionRequest) -> Result<Plan, ApiE
             ));
         }
     }
-    let index = |name: &str| object_index(entry, name).map(|i| i as u32);
-    let pairs = match &request.pairs {
-        Some(pairs) => pairs
-            .iter()
-            .map(|[a, b]| Ok((index(a)?, index(b)?)))
-            .collect::<Result<Vec<_>, ApiError>>()?,
-        None if request.self_objects.is_empty() => all_pairs(entry.object_names.len()),
-        None => Vec::new(),
-    };
-    let selves = request
-        .self_objects
-        .iter()
-        .map(|name| index(name))
-        .collect::<Result<Vec<_>, _>>()?;
-    let query = CollisionQuery {
-        test,
-        pairs,
-        selves,
-    };
-    query
-        .check(entry.object_names.len())
+    let query = request
+        .query(&entry.object_names)
         .map_err(ApiError::from_engine)?;
     Ok(Plan {
         kind: request.kind,

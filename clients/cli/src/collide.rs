@@ -6,12 +6,14 @@ use std::error::Error;
 use std::path::PathBuf;
 
 use clap::ValueEnum;
-use frusta_client::api::collisions::{CollisionKind, CollisionRequest, CollisionResponse};
+use frusta_client::api::collisions::{
+    object_by_name, CollisionKind, CollisionRequest, CollisionResponse,
+};
 use frusta_client::api::objects::{ObjectMove, ObjectPatch};
 use frusta_client::Client;
 use frusta_engine::bvh::{BuildOptions, SceneBvh};
 use frusta_engine::collision::continuous::EndPose;
-use frusta_engine::collision::{all_pairs, CollisionQuery, CollisionTest};
+use frusta_engine::collision::CollisionTest;
 use frusta_engine::geometry::RigidTransform;
 use frusta_engine::scene::Scene;
 use glam::Vec3;
@@ -122,53 +124,19 @@ pub fn run(args: &CollideArgs) -> Result<(), Box<dyn Error>> {
         .ok_or("give --scene FILE or --scene-id ID")?;
     let scene = Scene::load(path)?;
     let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
-    let index = |name: &str| -> Result<u32, Box<dyn Error>> {
-        names
-            .iter()
-            .position(|n| n == name)
-            .or_else(|| name.parse().ok().filter(|&i: &usize| i < names.len()))
-            .map(|i| i as u32)
-            .ok_or_else(|| format!("no object `{name}` (the scene has {})", names.len()).into())
-    };
     let request = args.request();
-    let test = match request.kind {
-        CollisionKind::Discrete => CollisionTest::Discrete,
-        CollisionKind::Proximity => CollisionTest::Proximity {
-            distance: args.distance.ok_or("a proximity query needs --distance")?,
-        },
-        CollisionKind::Continuous => CollisionTest::Continuous {
-            tolerance: args.tolerance,
-        },
-    };
-    let pairs = match &request.pairs {
-        Some(pairs) => pairs
-            .iter()
-            .map(|[a, b]| Ok((index(a)?, index(b)?)))
-            .collect::<Result<_, Box<dyn Error>>>()?,
-        None if args.selves.is_empty() => all_pairs(names.len()),
-        None => Vec::new(),
-    };
-    let selves = args
-        .selves
-        .iter()
-        .map(|s| index(s))
-        .collect::<Result<_, _>>()?;
-    let query = CollisionQuery {
-        test,
-        pairs,
-        selves,
-    };
+    let query = request.query(&names)?;
     let moved = args
         .moves
         .iter()
         .map(|(object, at)| {
-            let o = index(object)?;
+            let o = object_by_name(&names, object)?;
             let rotation = scene.objects[o as usize].transform.rotation;
             Ok((o, RigidTransform::new(rotation, *at)?))
         })
         .collect::<Result<Vec<_>, Box<dyn Error>>>()?;
     let mut world = SceneBvh::build(&scene, &BuildOptions::default());
-    let found = if matches!(test, CollisionTest::Continuous { .. }) {
+    let found = if matches!(query.test, CollisionTest::Continuous { .. }) {
         let ends: Vec<(u32, EndPose)> =
             moved.iter().map(|(o, t)| (*o, EndPose::Moved(t))).collect();
         query.run_during(&world, &ends)?

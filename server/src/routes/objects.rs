@@ -6,6 +6,7 @@ use axum::body::Body;
 use axum::extract::{Path, State};
 use axum::http::HeaderMap;
 use axum::{Extension, Json};
+use frusta_api::collisions::object_by_name;
 use frusta_api::objects::{EditReport, ObjectPatch};
 use frusta_api::schemas::Binary;
 use glam::Vec3;
@@ -57,17 +58,9 @@ fn binary_vertices(bytes: &[u8]) -> Result<ObjectEdit, ApiError> {
 /// An object by name, or by index when the name is all digits and no
 /// object has that name.
 pub fn object_index(entry: &SceneEntry, object: &str) -> Result<usize, ApiError> {
-    let objects = &entry.object_names;
-    objects
-        .iter()
-        .position(|name| name == object)
-        .or_else(|| object.parse::<usize>().ok().filter(|&i| i < objects.len()))
-        .ok_or_else(|| {
-            ApiError::UnknownObject(format!(
-                "`{object}` (the scene has {} objects)",
-                objects.len()
-            ))
-        })
+    object_by_name(&entry.object_names, object)
+        .map(|i| i as usize)
+        .map_err(ApiError::from_engine)
 }
 
 /// Largest edit body: 64 MiB, about 1.5M vertices as JSON or 5.5M as
