@@ -16,6 +16,7 @@
 pub mod build;
 mod mesh_bvh;
 pub mod node;
+pub mod obb;
 pub mod refit;
 pub mod traverse;
 pub mod wide;

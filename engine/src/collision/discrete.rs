@@ -8,9 +8,9 @@ use glam::{DVec3, Vec3, Vec3A};
 
 use super::contact::contact_points;
 use super::distance::triangle_distance;
-use super::triangle::triangles_intersect;
-use super::{for_each_self_candidate, world_corners, world_point};
-use crate::bvh::SceneBvh;
+use super::mesh_pairs::{contact_slots, self_contact_slots, Placed};
+use super::{world_corners, world_point};
+use crate::bvh::{Instance, SceneBvh};
 use crate::Result;
 
 /// Two intersecting triangles, as (object, mesh-order triangle) each.
@@ -67,12 +67,21 @@ pub fn object_contacts(world: &SceneBvh, a: u32, b: u32) -> Result<Vec<Contact>>
 /// [`object_contacts`] with where each pair meets, in the world
 /// ([`contact_points`]).
 pub fn object_contacts_at(world: &SceneBvh, a: u32, b: u32) -> Result<Vec<(Contact, Vec<DVec3>)>> {
-    let mut contacts = Vec::new();
-    for_each_candidate(world, a, b, 0.0, |contact, wa, wb| {
-        if triangles_intersect(wa, wb) {
-            contacts.push((contact, contact_points(wa, wb)));
-        }
-    })?;
+    let (ia, ib) = (instance(world, a)?, instance(world, b)?);
+    let (to_a, to_b) = (world_corners(ia.to_world()), world_corners(ib.to_world()));
+    let (ta, tb) = (ia.bvh().leaf_triangles(), ib.bvh().leaf_triangles());
+    let (ida, idb) = (ia.bvh().prim_ids(), ib.bvh().prim_ids());
+    let mut contacts: Vec<_> = contact_slots(placed(ia), placed(ib), None)?
+        .into_iter()
+        .map(|(x, y)| {
+            let (x, y) = (x as usize, y as usize);
+            let contact = Contact {
+                a: (a, ida[x]),
+                b: (b, idb[y]),
+            };
+            (contact, contact_points(&to_a(&ta[x]), &to_b(&tb[y])))
+        })
+        .collect();
     contacts.sort_unstable_by_key(|c| c.0);
     Ok(contacts)
 }
@@ -109,35 +118,46 @@ pub fn self_contacts(world: &SceneBvh, object: u32) -> Result<Vec<Contact>> {
 /// [`self_contacts`] with where each pair meets, in the world
 /// ([`contact_points`]).
 pub fn self_contacts_at(world: &SceneBvh, object: u32) -> Result<Vec<(Contact, Vec<DVec3>)>> {
-    let count = world.object_count();
-    let inst = world
-        .instances()
-        .get(object as usize)
-        .ok_or_else(|| crate::Error::UnknownObject(format!("#{object} (the scene has {count})")))?;
+    let inst = instance(world, object)?;
     let tris = inst.bvh().leaf_triangles();
     let ids = inst.bvh().prim_ids();
     let to_world = world_point(inst.to_world());
     let exact = |t: &[Vec3A; 3]| t.map(|p| Vec3::from(p).as_dvec3());
-    let adjacent = |x: &[Vec3A; 3], y: &[Vec3A; 3]| x.iter().any(|p| y.contains(p));
-    let mut contacts = Vec::new();
-    let mut test = |x: usize, y: usize| {
-        let (tx, ty) = (exact(&tris[x]), exact(&tris[y]));
-        if !adjacent(&tris[x], &tris[y]) && triangles_intersect(&tx, &ty) {
+    let mut contacts: Vec<_> = self_contact_slots(inst.bvh(), None, None)?
+        .into_iter()
+        .map(|(x, y)| {
+            let (x, y) = (x as usize, y as usize);
             let (p, q) = (ids[x].min(ids[y]), ids[x].max(ids[y]));
             let contact = Contact {
                 a: (object, p),
                 b: (object, q),
             };
-            let points = contact_points(&tx, &ty)
+            let points = contact_points(&exact(&tris[x]), &exact(&tris[y]))
                 .into_iter()
                 .map(&to_world)
                 .collect();
-            contacts.push((contact, points));
-        }
-    };
-    for_each_self_candidate(inst.bvh().wide(), &mut test);
+            (contact, points)
+        })
+        .collect();
     contacts.sort_unstable_by_key(|c| c.0);
     Ok(contacts)
+}
+
+fn placed(i: &Instance) -> Placed<'_> {
+    Placed {
+        mesh: i.bvh(),
+        to_world: i.to_world(),
+        obbs: None,
+    }
+}
+
+/// Object `object` of the world, or an error naming it.
+fn instance(world: &SceneBvh, object: u32) -> Result<&Instance> {
+    let count = world.object_count();
+    world
+        .instances()
+        .get(object as usize)
+        .ok_or_else(|| crate::Error::UnknownObject(format!("#{object} (the scene has {count})")))
 }
 
 /// Every pair of triangles of objects `a` and `b` at most `distance`

@@ -7,6 +7,7 @@ mod contact;
 pub mod continuous;
 mod discrete;
 mod distance;
+mod mesh_pairs;
 mod query;
 mod triangle;
 
@@ -20,6 +21,7 @@ pub use discrete::{
     world_contacts, Contact,
 };
 pub use distance::triangle_distance;
+pub use mesh_pairs::{mesh_contacts, mesh_self_contacts, Placed};
 pub use query::{all_pairs, CollisionQuery, CollisionTest, Found};
 pub use triangle::triangles_intersect;
 

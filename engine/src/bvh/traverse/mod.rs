@@ -17,6 +17,7 @@
 //! (a box, for points, proximity and broad phases).
 
 mod binary;
+pub mod front;
 mod frustum;
 mod overlap;
 pub mod pair;

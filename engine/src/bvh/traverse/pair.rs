@@ -1,15 +1,21 @@
 //! Two trees walked together: the bounding-volume test tree (BVTT) of
 //! collision queries (Lauterbach's dissertation, section 6.2).
 //!
-//! A BVTT node is a pair of tree nodes whose boxes overlap; its children
+//! A BVTT node is a pair of tree slots whose volumes overlap; its children
 //! are the overlapping pairs of their children, up to sixteen for two wide
 //! nodes. The walk descends both trees at once and stops at pairs of
 //! leaves, which it hands to the caller for the exact primitive tests.
+//!
+//! The volumes are the caller's: [`PairVolumes`] fetches a slot's volume
+//! (moving the second tree's into the first one's frame) and tests two for
+//! overlap, so boxes and oriented boxes fitted on the same topology share
+//! this walk, and so does the front of [`super::front`], which restarts it
+//! where the last frame stopped.
 
 use glam::Vec3A;
 
 use super::Flow;
-use crate::bvh::wide::{Bvh4, Node4};
+use crate::bvh::wide::Bvh4;
 use crate::geometry::{Aabb, RigidTransform};
 
 /// A run of leaf slots, `first..first + count`, of a tree's leaf order.
@@ -26,49 +32,250 @@ impl Leaf {
     }
 }
 
-/// A BVTT side: an inner node by index, or a leaf by this bit with its
-/// node's index and slot.
-const LEAF_REF: u32 = 1 << 31;
+/// One side of a BVTT node: slot `slot` of wide node `node`, packed as
+/// `node << 2 | slot`, or the whole tree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Slot(u32);
 
-/// The children of a side with their boxes: the four slots of an inner
-/// node, or a leaf itself (a leaf paired with an inner node stays while
-/// the other side descends).
-fn children(tree: &Bvh4, side: u32, out: &mut [(Aabb, u32); 4]) -> usize {
-    if side & LEAF_REF != 0 {
-        let (node, slot) = (((side & !LEAF_REF) >> 2) as usize, (side & 3) as usize);
-        out[0] = (tree.nodes[node].slot_aabb(slot), side);
-        return 1;
+impl Slot {
+    /// The whole tree: the side the walk starts from, never tested itself.
+    pub const ROOT: Slot = Slot(u32::MAX);
+
+    fn new(node: usize, slot: usize) -> Self {
+        Self(((node as u32) << 2) | slot as u32)
     }
-    let node: &Node4 = &tree.nodes[side as usize];
+
+    /// The wide node holding this slot.
+    pub fn node(self) -> usize {
+        (self.0 >> 2) as usize
+    }
+
+    /// Which of the node's four slots it is.
+    pub fn slot(self) -> usize {
+        (self.0 & 3) as usize
+    }
+}
+
+/// A node of the bounding-volume test tree: a slot of each tree, and
+/// whether both are the same subtree (self-collision pairs a subtree with
+/// itself, which overlaps by definition).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Pair {
+    pub a: Slot,
+    pub b: Slot,
+    pub same: bool,
+}
+
+impl Pair {
+    /// The BVTT's root: both whole trees.
+    pub const ROOT: Pair = Pair {
+        a: Slot::ROOT,
+        b: Slot::ROOT,
+        same: false,
+    };
+
+    /// The root of a tree paired with itself.
+    pub const SELF_ROOT: Pair = Pair {
+        a: Slot::ROOT,
+        b: Slot::ROOT,
+        same: true,
+    };
+}
+
+/// The bounding volumes of two trees' slots, and their overlap test. The
+/// walk fetches each slot's volume once per BVTT node it expands, so
+/// moving a volume into the first tree's frame belongs in
+/// [`volume_b`](Self::volume_b). Tests must be conservative: a pair of
+/// volumes reported apart has no pair of primitives that touch.
+pub trait PairVolumes: Sync {
+    type A: Copy;
+    type B: Copy;
+    fn tree_a(&self) -> &Bvh4;
+    fn tree_b(&self) -> &Bvh4;
+    fn volume_a(&self, slot: Slot) -> Self::A;
+    fn volume_b(&self, slot: Slot) -> Self::B;
+    fn overlap(&self, a: &Self::A, b: &Self::B) -> bool;
+
+    /// Whether BVTT node `pair` overlaps (a subtree with itself always does).
+    fn pair_overlaps(&self, pair: Pair) -> bool {
+        pair.same || self.overlap(&self.volume_a(pair.a), &self.volume_b(pair.b))
+    }
+}
+
+/// The trees' own boxes, `b`'s moved by `b_to_a` when given
+/// (conservatively: a moved box is the box of its moved corners, padded)
+/// and grown by `margin` (the broad phase of proximity queries).
+pub struct BoxVolumes<'t> {
+    pub a: &'t Bvh4,
+    pub b: &'t Bvh4,
+    pub b_to_a: Option<RigidTransform>,
+    pub margin: f32,
+}
+
+impl PairVolumes for BoxVolumes<'_> {
+    type A = Aabb;
+    type B = Aabb;
+
+    fn tree_a(&self) -> &Bvh4 {
+        self.a
+    }
+
+    fn tree_b(&self) -> &Bvh4 {
+        self.b
+    }
+
+    #[inline]
+    fn volume_a(&self, s: Slot) -> Aabb {
+        self.a.nodes[s.node()].slot_aabb(s.slot())
+    }
+
+    #[inline]
+    fn volume_b(&self, s: Slot) -> Aabb {
+        let mut b = self.b.nodes[s.node()].slot_aabb(s.slot());
+        if let Some(t) = &self.b_to_a {
+            b = b.transformed(t);
+        }
+        if self.margin > 0.0 {
+            b = Aabb::new(
+                b.min - Vec3A::splat(self.margin),
+                b.max + Vec3A::splat(self.margin),
+            );
+        }
+        b
+    }
+
+    #[inline]
+    fn overlap(&self, a: &Aabb, b: &Aabb) -> bool {
+        a.overlaps(b)
+    }
+}
+
+/// The children of a side: the used slots of its node, or a leaf itself
+/// (a leaf paired with an inner node stays while the other side descends).
+fn children(tree: &Bvh4, side: Slot, out: &mut [Slot; 4]) -> usize {
+    let node = if side == Slot::ROOT {
+        0
+    } else {
+        let n = &tree.nodes[side.node()];
+        if n.is_leaf_slot(side.slot()) {
+            out[0] = side;
+            return 1;
+        }
+        n.child[side.slot()] as usize
+    };
+    let n = &tree.nodes[node];
     let mut k = 0;
     for slot in 0..4 {
-        let side = if node.is_leaf_slot(slot) {
-            LEAF_REF | (side << 2) | slot as u32
-        } else if node.is_inner_slot(slot) {
-            node.child[slot]
-        } else {
-            continue;
-        };
-        out[k] = (node.slot_aabb(slot), side);
-        k += 1;
+        if n.is_leaf_slot(slot) || n.is_inner_slot(slot) {
+            out[k] = Slot::new(node, slot);
+            k += 1;
+        }
     }
     k
 }
 
-fn leaf(tree: &Bvh4, side: u32) -> Option<Leaf> {
-    (side & LEAF_REF != 0).then(|| {
-        let (node, slot) = (((side & !LEAF_REF) >> 2) as usize, (side & 3) as usize);
-        let n = &tree.nodes[node];
-        Leaf {
-            first: n.child[slot],
-            count: n.count[slot],
-        }
+/// The leaf a side is, if it is one.
+pub(super) fn leaf(tree: &Bvh4, side: Slot) -> Option<Leaf> {
+    if side == Slot::ROOT {
+        return None;
+    }
+    let n = &tree.nodes[side.node()];
+    n.is_leaf_slot(side.slot()).then(|| Leaf {
+        first: n.child[side.slot()],
+        count: n.count[side.slot()],
     })
 }
 
+/// What a child of a BVTT node is.
+pub(super) enum Step {
+    /// Its volumes are apart: nothing below it touches.
+    Apart,
+    /// Two overlapping leaves (or a leaf with itself).
+    Leaves(Leaf, Leaf),
+    /// Overlapping, with an inner node on at least one side: to descend.
+    Inner,
+}
+
+/// Calls `child(pair, step)` for each child of BVTT node `p` (whose own
+/// overlap the caller has decided); `child` breaks to stop.
+pub(super) fn expand<V: PairVolumes>(
+    volumes: &V,
+    p: Pair,
+    mut child: impl FnMut(Pair, Step) -> Flow,
+) -> Flow {
+    let (a, b) = (volumes.tree_a(), volumes.tree_b());
+    let (mut sa, mut sb) = ([Slot::ROOT; 4], [Slot::ROOT; 4]);
+    let ka = children(a, p.a, &mut sa);
+    let kb = if p.same {
+        sb = sa;
+        ka
+    } else {
+        children(b, p.b, &mut sb)
+    };
+    if ka == 0 || kb == 0 {
+        return Flow::Continue(());
+    }
+    let va: [V::A; 4] = std::array::from_fn(|i| volumes.volume_a(sa[i.min(ka - 1)]));
+    let vb: [V::B; 4] = std::array::from_fn(|j| volumes.volume_b(sb[j.min(kb - 1)]));
+    for i in 0..ka {
+        // Within one subtree, each unordered pair of children once and
+        // each child with itself.
+        let from = if p.same { i } else { 0 };
+        for j in from..kb {
+            let same = p.same && i == j;
+            let pair = Pair {
+                a: sa[i],
+                b: sb[j],
+                same,
+            };
+            let step = if !same && !volumes.overlap(&va[i], &vb[j]) {
+                Step::Apart
+            } else if let (Some(la), Some(lb)) = (leaf(a, pair.a), leaf(b, pair.b)) {
+                Step::Leaves(la, lb)
+            } else {
+                Step::Inner
+            };
+            child(pair, step)?;
+        }
+    }
+    Flow::Continue(())
+}
+
+/// Walks the BVTT below `start` (whose own overlap the caller has
+/// decided): calls `visit` for every pair of overlapping leaves, and
+/// records in `front` where it stopped, the leaf pairs it visited and the
+/// pairs it found apart. A leaf paired with itself is visited, since its
+/// own primitives may touch one another. `visit` breaks to end the walk.
+pub(super) fn descend<V: PairVolumes>(
+    volumes: &V,
+    start: Pair,
+    stack: &mut Vec<Pair>,
+    mut front: Option<&mut Vec<Pair>>,
+    visit: &mut impl FnMut(Leaf, Leaf) -> Flow,
+) -> Flow {
+    if volumes.tree_a().nodes.is_empty() || volumes.tree_b().nodes.is_empty() {
+        return Flow::Continue(());
+    }
+    stack.clear();
+    stack.push(start);
+    while let Some(p) = stack.pop() {
+        expand(volumes, p, |pair, step| {
+            match step {
+                Step::Apart => front.iter_mut().for_each(|f| f.push(pair)),
+                Step::Leaves(la, lb) => {
+                    front.iter_mut().for_each(|f| f.push(pair));
+                    visit(la, lb)?;
+                }
+                Step::Inner => stack.push(pair),
+            }
+            Flow::Continue(())
+        })?;
+    }
+    Flow::Continue(())
+}
+
 /// Calls `visit(leaf of a, leaf of b)` for every pair of leaves whose boxes
-/// overlap, with `b`'s boxes moved into `a`'s frame by `b_to_a` when given
-/// (conservatively: a moved box is the box of its moved corners, padded).
+/// overlap, with `b`'s boxes moved into `a`'s frame by `b_to_a` when given.
 /// `visit` breaks to end the walk.
 pub fn overlapping_leaves(
     a: &Bvh4,
@@ -88,36 +295,13 @@ pub fn leaves_within(
     margin: f32,
     mut visit: impl FnMut(Leaf, Leaf) -> Flow,
 ) {
-    if a.nodes.is_empty() || b.nodes.is_empty() {
-        return;
-    }
-    let mut stack = vec![(0u32, 0u32)];
-    let (mut ca, mut cb) = ([(Aabb::EMPTY, 0); 4], [(Aabb::EMPTY, 0); 4]);
-    while let Some((sa, sb)) = stack.pop() {
-        let ka = children(a, sa, &mut ca);
-        let kb = children(b, sb, &mut cb);
-        for (bx, _) in &mut cb[..kb] {
-            if let Some(t) = b_to_a {
-                *bx = bx.transformed(t);
-            }
-            *bx = Aabb::new(bx.min - Vec3A::splat(margin), bx.max + Vec3A::splat(margin));
-        }
-        for &(box_a, xa) in &ca[..ka] {
-            for &(box_b, xb) in &cb[..kb] {
-                if !box_a.overlaps(&box_b) {
-                    continue;
-                }
-                match (leaf(a, xa), leaf(b, xb)) {
-                    (Some(la), Some(lb)) => {
-                        if visit(la, lb).is_break() {
-                            return;
-                        }
-                    }
-                    _ => stack.push((xa, xb)),
-                }
-            }
-        }
-    }
+    let volumes = BoxVolumes {
+        a,
+        b,
+        b_to_a: b_to_a.copied(),
+        margin,
+    };
+    let _ = descend(&volumes, Pair::ROOT, &mut Vec::new(), None, &mut visit);
 }
 
 /// Calls `visit(x, y)` for every unordered pair of distinct leaves of
@@ -125,40 +309,13 @@ pub fn leaves_within(
 /// whose own primitives may touch one another: the broad phase of
 /// self-collision. `visit` breaks to end the walk.
 pub fn self_overlapping_leaves(tree: &Bvh4, mut visit: impl FnMut(Leaf, Leaf) -> Flow) {
-    if tree.nodes.is_empty() {
-        return;
-    }
-    // (side, side, whether both are the same subtree)
-    let mut stack = vec![(0u32, 0u32, true)];
-    let (mut ca, mut cb) = ([(Aabb::EMPTY, 0); 4], [(Aabb::EMPTY, 0); 4]);
-    while let Some((sa, sb, same)) = stack.pop() {
-        let ka = children(tree, sa, &mut ca);
-        let kb = if same {
-            cb = ca;
-            ka
-        } else {
-            children(tree, sb, &mut cb)
-        };
-        for (i, &(box_a, xa)) in ca[..ka].iter().enumerate() {
-            // Within one subtree, each unordered pair of children once and
-            // each child with itself.
-            let from = if same { i } else { 0 };
-            for (j, &(box_b, xb)) in cb[..kb].iter().enumerate().skip(from) {
-                let itself = same && i == j;
-                if !itself && !box_a.overlaps(&box_b) {
-                    continue;
-                }
-                match (leaf(tree, xa), leaf(tree, xb)) {
-                    (Some(la), Some(lb)) => {
-                        if visit(la, lb).is_break() {
-                            return;
-                        }
-                    }
-                    _ => stack.push((xa, xb, itself)),
-                }
-            }
-        }
-    }
+    let volumes = BoxVolumes {
+        a: tree,
+        b: tree,
+        b_to_a: None,
+        margin: 0.0,
+    };
+    let _ = descend(&volumes, Pair::SELF_ROOT, &mut Vec::new(), None, &mut visit);
 }
 
 #[cfg(test)]

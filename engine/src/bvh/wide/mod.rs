@@ -8,6 +8,8 @@
 
 mod refit;
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use glam::Vec4;
 
 use super::{Bvh, Node};
@@ -91,6 +93,10 @@ pub struct Bvh4 {
     /// Area ratios at build time: per node, its own ratio then one per slot
     /// (see [`super::quality`]).
     pub(crate) build_ratios: Vec<[f32; 5]>,
+    /// Distinct for every build and kept by refits and clones: what lets a
+    /// BVTT front (see [`super::traverse::front`]) tell that the tree it
+    /// was made on has been rebuilt.
+    pub(crate) topology: u64,
 }
 
 impl Bvh4 {
@@ -110,9 +116,11 @@ impl Bvh4 {
                 collapse(&bin.nodes, 0, &mut nodes);
             }
         }
+        static BUILDS: AtomicU64 = AtomicU64::new(1);
         let mut wide = Self {
             nodes,
             build_ratios: Vec::new(),
+            topology: BUILDS.fetch_add(1, Ordering::Relaxed),
         };
         wide.build_ratios = vec![[1.0; 5]; wide.nodes.len()];
         wide

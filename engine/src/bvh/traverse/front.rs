@@ -1,0 +1,235 @@
+//! The BVTT front, kept between frames (the dissertation's section 6.2.3),
+//! and the parallel pair walk it restarts.
+//!
+//! A walk of the bounding-volume test tree stops at two kinds of node:
+//! pairs of overlapping leaves and pairs found apart. Those stops form a
+//! cut of the BVTT (every root-to-leaf path crosses exactly one), so when
+//! the trees are refitted on the same topology the next frame can start
+//! from them instead of the root: a stop that still overlaps is descended
+//! (or, as a leaf pair, visited), one that is still apart stays. Volumes
+//! nest after a refit, so nothing below a pair apart can touch and the
+//! walk from the front finds exactly what a walk from the root finds.
+//!
+//! The dissertation moves a front up again where parents stop
+//! overlapping. Here, instead, a front that has gone stale (its share of
+//! overlapping stops has fallen below half of what a fresh walk gave) is
+//! dropped and the next frame walks from the root, which makes a fresh
+//! one: simpler, and the cost stays within twice that of a fresh front.
+
+use rayon::prelude::*;
+
+use super::pair::{descend, expand, leaf, Leaf, Pair, PairVolumes, Step};
+use super::Flow;
+
+/// Stops handed to one task of the parallel walks.
+const CHUNK: usize = 256;
+
+/// BVTT nodes the parallel walk from the root expands breadth-first
+/// before it splits them over threads.
+const SEEDS: usize = 256;
+
+/// A walk's results: what `visit` collected, and the front it stopped at.
+struct Walk<T> {
+    found: Vec<T>,
+    front: Vec<Pair>,
+    /// Stops that were overlapping leaf pairs.
+    leaf_pairs: usize,
+}
+
+impl<T> Walk<T> {
+    fn empty() -> Self {
+        Self {
+            found: Vec::new(),
+            front: Vec::new(),
+            leaf_pairs: 0,
+        }
+    }
+
+    /// A stop at two overlapping leaves.
+    fn stop_at_leaves(
+        &mut self,
+        pair: Pair,
+        la: Leaf,
+        lb: Leaf,
+        visit: &impl Fn(Leaf, Leaf, &mut Vec<T>),
+    ) {
+        self.front.push(pair);
+        self.leaf_pairs += 1;
+        visit(la, lb, &mut self.found);
+    }
+
+    /// The walk below overlapping BVTT node `p`.
+    fn descend<V: PairVolumes>(
+        &mut self,
+        volumes: &V,
+        p: Pair,
+        stack: &mut Vec<Pair>,
+        visit: &impl Fn(Leaf, Leaf, &mut Vec<T>),
+    ) {
+        let (found, leaf_pairs) = (&mut self.found, &mut self.leaf_pairs);
+        let _ = descend(volumes, p, stack, Some(&mut self.front), &mut |la, lb| {
+            *leaf_pairs += 1;
+            visit(la, lb, found);
+            Flow::Continue(())
+        });
+    }
+
+    fn join(mut self, other: Self) -> Self {
+        self.found.extend(other.found);
+        self.front.extend(other.front);
+        self.leaf_pairs += other.leaf_pairs;
+        self
+    }
+}
+
+/// Walks below each of `starts` (overlapping BVTT nodes) on one thread.
+fn walk_below<V: PairVolumes, T>(
+    volumes: &V,
+    starts: &[Pair],
+    visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync),
+) -> Walk<T> {
+    let mut walk = Walk::empty();
+    let mut stack = Vec::new();
+    for &p in starts {
+        walk.descend(volumes, p, &mut stack, visit);
+    }
+    walk
+}
+
+/// The walk from `root` (the BVTT root, or a tree's root with itself),
+/// over both threads: the top levels breadth-first until there are enough
+/// nodes to share out, then one depth-first walk per chunk of them.
+fn walk_from_root<V: PairVolumes, T: Send>(
+    volumes: &V,
+    root: Pair,
+    visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync),
+) -> Walk<T> {
+    let mut walk = Walk::empty();
+    if volumes.tree_a().nodes.is_empty() || volumes.tree_b().nodes.is_empty() {
+        return walk;
+    }
+    let mut level = vec![root];
+    while !level.is_empty() && level.len() < SEEDS {
+        let mut next = Vec::with_capacity(level.len() * 16);
+        for &p in &level {
+            let _ = expand(volumes, p, |pair, step| {
+                match step {
+                    Step::Apart => walk.front.push(pair),
+                    Step::Leaves(la, lb) => walk.stop_at_leaves(pair, la, lb, visit),
+                    Step::Inner => next.push(pair),
+                }
+                Flow::Continue(())
+            });
+        }
+        level = next;
+    }
+    let below = level
+        .par_chunks(CHUNK.min(level.len().div_ceil(8)).max(1))
+        .map(|starts| walk_below(volumes, starts, visit))
+        .reduce(Walk::empty, Walk::join);
+    walk.join(below)
+}
+
+/// Calls `visit(leaf of a, leaf of b, found)` for every pair of leaves
+/// whose volumes overlap, on all threads, and returns what the calls
+/// pushed (in no particular order). For one tree with itself (`volumes`
+/// over the same tree twice), pass `same`: each unordered pair of distinct
+/// leaves is then visited once, and each leaf with itself.
+pub fn par_leaf_pairs<V: PairVolumes, T: Send>(
+    volumes: &V,
+    same: bool,
+    visit: impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync,
+) -> Vec<T> {
+    let root = if same { Pair::SELF_ROOT } else { Pair::ROOT };
+    walk_from_root(volumes, root, &visit).found
+}
+
+/// Where the last frame's pair walk stopped, to start the next one from.
+#[derive(Clone, Debug, Default)]
+pub struct Front {
+    pairs: Vec<Pair>,
+    /// The trees' topologies the pairs refer to.
+    trees: (u64, u64),
+    same: bool,
+    /// Share of overlapping leaf pairs among the stops of the last walk
+    /// from the root, and of the last frame.
+    fresh_share: f64,
+    share: f64,
+}
+
+impl Front {
+    /// An empty front: its first walk starts from the root.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// How many BVTT nodes it holds.
+    pub fn len(&self) -> usize {
+        self.pairs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pairs.is_empty()
+    }
+
+    /// [`par_leaf_pairs`], started from this front where it is still valid
+    /// for `volumes`' trees (same topologies, same kind of walk, not stale)
+    /// and from the root otherwise; leaves the front where this walk
+    /// stopped.
+    pub fn leaf_pairs<V: PairVolumes, T: Send>(
+        &mut self,
+        volumes: &V,
+        same: bool,
+        visit: impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync,
+    ) -> Vec<T> {
+        let trees = (volumes.tree_a().topology, volumes.tree_b().topology);
+        let valid = !self.pairs.is_empty()
+            && self.trees == trees
+            && self.same == same
+            && self.share * 2.0 >= self.fresh_share;
+        let walk = if valid {
+            self.pairs
+                .par_chunks(CHUNK)
+                .map(|stops| restart(volumes, stops, &visit))
+                .reduce(Walk::empty, Walk::join)
+        } else {
+            let root = if same { Pair::SELF_ROOT } else { Pair::ROOT };
+            walk_from_root(volumes, root, &visit)
+        };
+        let share = walk.leaf_pairs as f64 / walk.front.len().max(1) as f64;
+        if !valid {
+            self.fresh_share = share;
+        }
+        *self = Self {
+            pairs: walk.front,
+            trees,
+            same,
+            fresh_share: self.fresh_share,
+            share,
+        };
+        walk.found
+    }
+}
+
+/// The walk from last frame's `stops`: those apart stay, overlapping leaf
+/// pairs are visited and stay, and the walk descends from the others.
+fn restart<V: PairVolumes, T>(
+    volumes: &V,
+    stops: &[Pair],
+    visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync),
+) -> Walk<T> {
+    let (a, b) = (volumes.tree_a(), volumes.tree_b());
+    let mut walk = Walk::empty();
+    let mut stack = Vec::new();
+    for &p in stops {
+        if !volumes.pair_overlaps(p) {
+            walk.front.push(p);
+            continue;
+        }
+        match (leaf(a, p.a), leaf(b, p.b)) {
+            (Some(la), Some(lb)) => walk.stop_at_leaves(p, la, lb, visit),
+            _ => walk.descend(volumes, p, &mut stack, visit),
+        }
+    }
+    walk
+}

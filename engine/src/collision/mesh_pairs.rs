@@ -1,0 +1,197 @@
+//! Intersecting triangles of two mesh trees, or of one tree with itself,
+//! on all threads: the pair walk over the trees' boxes or over oriented
+//! boxes fitted on the same topology, restarted from a BVTT front where
+//! the caller keeps one, and the exact triangle test on each candidate.
+
+use glam::{DVec3, Vec3, Vec3A};
+
+use super::triangle::triangles_intersect;
+use super::world_corners;
+use crate::bvh::obb::{ObbTree, ObbVolumes};
+use crate::bvh::traverse::front::{par_leaf_pairs, Front};
+use crate::bvh::traverse::pair::{BoxVolumes, Leaf, PairVolumes};
+use crate::bvh::MeshBvh;
+use crate::geometry::RigidTransform;
+use crate::Result;
+
+/// A mesh placed in the world, with the oriented boxes to walk instead of
+/// its tree's own boxes, if any (both sides of a pair need them).
+#[derive(Clone, Copy, Debug)]
+pub struct Placed<'a> {
+    pub mesh: &'a MeshBvh,
+    pub to_world: &'a RigidTransform,
+    pub obbs: Option<&'a ObbTree>,
+}
+
+/// Runs the walk over `volumes`, from `front` when given.
+fn walk<V: PairVolumes>(
+    volumes: &V,
+    same: bool,
+    front: Option<&mut Front>,
+    visit: impl Fn(Leaf, Leaf, &mut Vec<(u32, u32)>) + Sync,
+) -> Vec<(u32, u32)> {
+    match front {
+        Some(f) => f.leaf_pairs(volumes, same, visit),
+        None => par_leaf_pairs(volumes, same, visit),
+    }
+}
+
+fn f64_box(t: &[DVec3; 3]) -> (DVec3, DVec3) {
+    (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
+}
+
+fn boxes_meet((alo, ahi): (DVec3, DVec3), (blo, bhi): (DVec3, DVec3)) -> bool {
+    alo.cmple(bhi).all() && ahi.cmpge(blo).all()
+}
+
+/// Triangles of `b`'s leaves moved to the world at a time, so each is
+/// moved once per leaf pair rather than once per triangle it meets.
+const BLOCK: usize = 16;
+
+/// The leaf slots `(x of a, y of b)` of every pair of intersecting
+/// triangles, decided exactly on world coordinates, in no order.
+pub(crate) fn contact_slots(
+    a: Placed,
+    b: Placed,
+    front: Option<&mut Front>,
+) -> Result<Vec<(u32, u32)>> {
+    let b_to_a = (!a.to_world.is_identity() || !b.to_world.is_identity())
+        .then(|| b.to_world.then(&a.to_world.inverse()));
+    let (to_a, to_b) = (world_corners(a.to_world), world_corners(b.to_world));
+    let (ta, tb) = (a.mesh.leaf_triangles(), b.mesh.leaf_triangles());
+    let visit = |la: Leaf, lb: Leaf, out: &mut Vec<(u32, u32)>| {
+        let mut moved = [([DVec3::ZERO; 3], (DVec3::ZERO, DVec3::ZERO)); BLOCK];
+        for start in lb.slots().step_by(BLOCK) {
+            let ys = start..(start + BLOCK).min(lb.slots().end);
+            for (m, y) in moved.iter_mut().zip(ys.clone()) {
+                let w = to_b(&tb[y]);
+                *m = (w, f64_box(&w));
+            }
+            for x in la.slots() {
+                let wa = to_a(&ta[x]);
+                let box_a = f64_box(&wa);
+                for (y, (wb, box_b)) in ys.clone().zip(&moved) {
+                    if boxes_meet(box_a, *box_b) && triangles_intersect(&wa, wb) {
+                        out.push((x as u32, y as u32));
+                    }
+                }
+            }
+        }
+    };
+    Ok(match (a.obbs, b.obbs) {
+        (Some(oa), Some(ob)) => {
+            let volumes = ObbVolumes::new((a.mesh, oa), (b.mesh, ob), b_to_a)?;
+            walk(&volumes, false, front, visit)
+        }
+        _ => {
+            let volumes = BoxVolumes {
+                a: a.mesh.wide(),
+                b: b.mesh.wide(),
+                b_to_a,
+                margin: 0.0,
+            };
+            walk(&volumes, false, front, visit)
+        }
+    })
+}
+
+/// The leaf slots `(x, y)`, `x < y`, of every pair of intersecting
+/// triangles of one mesh that share no corner, in no order. Decided in the
+/// mesh's own frame, where its coordinates are exact.
+pub(crate) fn self_contact_slots(
+    mesh: &MeshBvh,
+    obbs: Option<&ObbTree>,
+    front: Option<&mut Front>,
+) -> Result<Vec<(u32, u32)>> {
+    let tris = mesh.leaf_triangles();
+    let exact = |t: &[Vec3A; 3]| t.map(|p| Vec3::from(p).as_dvec3());
+    let touch = |x: &[Vec3A; 3], y: &[Vec3A; 3]| {
+        let (bx, by) = (
+            (x[0].min(x[1]).min(x[2]), x[0].max(x[1]).max(x[2])),
+            (y[0].min(y[1]).min(y[2]), y[0].max(y[1]).max(y[2])),
+        );
+        bx.0.cmple(by.1).all()
+            && bx.1.cmpge(by.0).all()
+            && !x.iter().any(|p| y.contains(p))
+            && triangles_intersect(&exact(x), &exact(y))
+    };
+    let visit = |la: Leaf, lb: Leaf, out: &mut Vec<(u32, u32)>| {
+        for x in la.slots() {
+            let ys = if la == lb {
+                x + 1..la.slots().end
+            } else {
+                lb.slots()
+            };
+            for y in ys {
+                if touch(&tris[x], &tris[y]) {
+                    out.push((x.min(y) as u32, x.max(y) as u32));
+                }
+            }
+        }
+    };
+    Ok(match obbs {
+        Some(o) => {
+            let volumes = ObbVolumes::new((mesh, o), (mesh, o), None)?;
+            walk(&volumes, true, front, visit)
+        }
+        None => {
+            let volumes = BoxVolumes {
+                a: mesh.wide(),
+                b: mesh.wide(),
+                b_to_a: None,
+                margin: 0.0,
+            };
+            walk(&volumes, true, front, visit)
+        }
+    })
+}
+
+/// Every pair of intersecting triangles of two placed meshes, as
+/// mesh-order triangle indices `(of a, of b)`, sorted. With a `front`, the
+/// walk restarts where the last call with it stopped (valid while both
+/// trees keep their topology; otherwise it starts over).
+///
+/// ```
+/// use frusta_engine::bvh::{BuildOptions, MeshBvh};
+/// use frusta_engine::collision::{mesh_contacts, Placed};
+/// use frusta_engine::geometry::{RigidTransform, TriangleMesh};
+/// use glam::Vec3;
+///
+/// let tri = |z: f32| TriangleMesh::new(
+///     vec![Vec3::new(0.0, 0.0, z), Vec3::new(1.0, 0.0, -z), Vec3::new(0.0, 1.0, 0.0)],
+///     vec![[0, 1, 2]],
+/// ).unwrap();
+/// let (a, b) = (MeshBvh::build(&tri(0.0), &BuildOptions::default()), MeshBvh::build(&tri(0.5), &BuildOptions::default()));
+/// let at = RigidTransform::default();
+/// let place = |mesh| Placed { mesh, to_world: &at, obbs: None };
+/// assert_eq!(mesh_contacts(place(&a), place(&b), None).unwrap(), vec![(0, 0)]);
+/// ```
+pub fn mesh_contacts(a: Placed, b: Placed, front: Option<&mut Front>) -> Result<Vec<(u32, u32)>> {
+    let (ia, ib) = (a.mesh.prim_ids(), b.mesh.prim_ids());
+    let mut pairs: Vec<(u32, u32)> = contact_slots(a, b, front)?
+        .into_iter()
+        .map(|(x, y)| (ia[x as usize], ib[y as usize]))
+        .collect();
+    pairs.sort_unstable();
+    Ok(pairs)
+}
+
+/// Every pair of intersecting triangles of one mesh that share no corner,
+/// as mesh-order indices `(p, q)`, `p < q`, sorted; with oriented boxes
+/// and a front as in [`mesh_contacts`].
+pub fn mesh_self_contacts(
+    mesh: &MeshBvh,
+    obbs: Option<&ObbTree>,
+    front: Option<&mut Front>,
+) -> Result<Vec<(u32, u32)>> {
+    let ids = mesh.prim_ids();
+    let mut pairs: Vec<(u32, u32)> = self_contact_slots(mesh, obbs, front)?
+        .into_iter()
+        .map(|(x, y)| {
+            let (p, q) = (ids[x as usize], ids[y as usize]);
+            (p.min(q), p.max(q))
+        })
+        .collect();
+    pairs.sort_unstable();
+    Ok(pairs)
+}
