@@ -174,7 +174,7 @@ impl Moments {
     /// no area or the decomposition does not give a frame.
     fn axes(&self) -> [Vec3A; 3] {
         let fallback = [Vec3A::X, Vec3A::Y, Vec3A::Z];
-        if !(self.area > 0.0) || !self.area.is_finite() {
+        if self.area.is_nan() || self.area <= 0.0 || !self.area.is_finite() {
             return fallback;
         }
         let m = self.first / self.area;
@@ -195,7 +195,7 @@ impl Moments {
         let u = column(0).normalize_or_zero();
         let v = (column(1) - u * u.dot(column(1))).normalize_or_zero();
         let w = u.cross(v);
-        if !(w.length_squared() > 0.5) {
+        if w.length_squared().is_nan() || w.length_squared() <= 0.5 {
             return fallback;
         }
         [u, v, w].map(|a| Vec3A::from(a.as_vec3()))
