@@ -12,10 +12,13 @@
 //! [--save DIR]` runs the release server under a long mixed load and checks
 //! that nothing fails and its memory stays flat (see `soak`);
 //! `frusta-bench update [--scene NAME] [--save DIR]` times moving and
-//! deforming one object by its size (see `update`).
+//! deforming one object by its size (see `update`);
+//! `frusta-bench ccd` and `frusta-bench collide` measure continuous tests
+//! and per-frame discrete collision with parry3d side by side.
 
 mod bvh_bench;
 mod ccd;
+mod collide;
 mod mesh;
 mod propagation;
 mod provenance;
@@ -57,6 +60,10 @@ enum Command {
     /// Continuous vertex–face and edge–edge tests on the sample queries of
     /// Wang et al. 2021: false negatives, false positives, time per query.
     Ccd(ccd::Args),
+    /// Discrete collision per frame: a deforming cloth against itself and
+    /// a mesh against a moving copy, AABB vs OBB, with and without a BVTT
+    /// front, parry3d side by side.
+    Collide(collide::Args),
 }
 
 fn main() -> ExitCode {
@@ -68,6 +75,7 @@ fn main() -> ExitCode {
         Command::Soak(args) => soak::run(args),
         Command::Update(args) => update::run(args),
         Command::Ccd(args) => ccd::run(args),
+        Command::Collide(args) => collide::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

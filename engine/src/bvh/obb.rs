@@ -12,7 +12,7 @@
 //! triangles.
 
 use glam::{DVec3, Vec3A};
-use nalgebra::Matrix3;
+use glamx::{DMat3, DSymmetricEigen3};
 use rayon::prelude::*;
 
 use super::traverse::pair::{PairVolumes, Slot};
@@ -179,19 +179,14 @@ impl Moments {
         }
         let m = self.first / self.area;
         let s = self.second.map(|x| x / self.area);
-        let cov = Matrix3::new(
-            s[0] - m.x * m.x,
-            s[1] - m.x * m.y,
-            s[2] - m.x * m.z,
-            s[1] - m.x * m.y,
-            s[3] - m.y * m.y,
-            s[4] - m.y * m.z,
-            s[2] - m.x * m.z,
-            s[4] - m.y * m.z,
-            s[5] - m.z * m.z,
-        );
-        let vectors = cov.symmetric_eigen().eigenvectors;
-        let column = |k: usize| DVec3::new(vectors[(0, k)], vectors[(1, k)], vectors[(2, k)]);
+        let (xx, xy, xz) = (s[0] - m.x * m.x, s[1] - m.x * m.y, s[2] - m.x * m.z);
+        let (yy, yz, zz) = (s[3] - m.y * m.y, s[4] - m.y * m.z, s[5] - m.z * m.z);
+        let cov = DMat3::from_cols_array(&[xx, xy, xz, xy, yy, yz, xz, yz, zz]);
+        let vectors = DSymmetricEigen3::new(cov).eigenvectors;
+        let column = |k: usize| {
+            let c = vectors.col(k);
+            DVec3::new(c.x, c.y, c.z)
+        };
         let u = column(0).normalize_or_zero();
         let v = (column(1) - u * u.dot(column(1))).normalize_or_zero();
         let w = u.cross(v);

@@ -4,6 +4,7 @@
 //! the caller keeps one, and the exact triangle test on each candidate.
 
 use glam::{DVec3, Vec3, Vec3A};
+use rayon::prelude::*;
 
 use super::triangle::triangles_intersect;
 use super::world_corners;
@@ -11,7 +12,7 @@ use crate::bvh::obb::{ObbTree, ObbVolumes};
 use crate::bvh::traverse::front::{par_leaf_pairs, Front};
 use crate::bvh::traverse::pair::{BoxVolumes, Leaf, PairVolumes};
 use crate::bvh::MeshBvh;
-use crate::geometry::RigidTransform;
+use crate::geometry::{Aabb, RigidTransform};
 use crate::Result;
 
 /// A mesh placed in the world, with the oriented boxes to walk instead of
@@ -34,6 +35,10 @@ fn walk<V: PairVolumes>(
         Some(f) => f.leaf_pairs(volumes, same, visit),
         None => par_leaf_pairs(volumes, same, visit),
     }
+}
+
+fn triangle_box([a, b, c]: &[Vec3A; 3]) -> Aabb {
+    Aabb::new(a.min(*b).min(*c), a.max(*b).max(*c))
 }
 
 fn f64_box(t: &[DVec3; 3]) -> (DVec3, DVec3) {
@@ -104,27 +109,38 @@ pub(crate) fn self_contact_slots(
     front: Option<&mut Front>,
 ) -> Result<Vec<(u32, u32)>> {
     let tris = mesh.leaf_triangles();
+    // Each triangle's box once, not once per leaf pair it is in (a cloth's
+    // leaf meets about ten others).
+    let boxes: Vec<Aabb> = tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(triangle_box)
+        .collect();
     let exact = |t: &[Vec3A; 3]| t.map(|p| Vec3::from(p).as_dvec3());
-    let touch = |x: &[Vec3A; 3], y: &[Vec3A; 3]| {
-        let (bx, by) = (
-            (x[0].min(x[1]).min(x[2]), x[0].max(x[1]).max(x[2])),
-            (y[0].min(y[1]).min(y[2]), y[0].max(y[1]).max(y[2])),
-        );
-        bx.0.cmple(by.1).all()
-            && bx.1.cmpge(by.0).all()
-            && !x.iter().any(|p| y.contains(p))
-            && triangles_intersect(&exact(x), &exact(y))
-    };
     let visit = |la: Leaf, lb: Leaf, out: &mut Vec<(u32, u32)>| {
+        let reach = boxes[lb.slots()]
+            .iter()
+            .fold(Aabb::EMPTY, |u, b| u.union(*b));
         for x in la.slots() {
+            let bx = &boxes[x];
+            // Most triangles of a leaf lie away from a neighbouring leaf:
+            // one test against that leaf's box skips them.
+            if !bx.overlaps(&reach) {
+                continue;
+            }
             let ys = if la == lb {
                 x + 1..la.slots().end
             } else {
                 lb.slots()
             };
             for y in ys {
-                if touch(&tris[x], &tris[y]) {
-                    out.push((x.min(y) as u32, x.max(y) as u32));
+                if bx.overlaps(&boxes[y]) {
+                    let (tx, ty) = (&tris[x], &tris[y]);
+                    if !tx.iter().any(|p| ty.contains(p))
+                        && triangles_intersect(&exact(tx), &exact(ty))
+                    {
+                        out.push((x as u32, y as u32));
+                    }
                 }
             }
         }

@@ -104,6 +104,15 @@ fn segment_meets_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3], axis: usize) -> bo
 /// Whether closed triangles `a` and `b` intersect, decided exactly for the
 /// given coordinates.
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+    // Most candidate pairs lie strictly on one side of the other's plane:
+    // three orientations settle them, before any edge is tested.
+    let one_side = |t: &[DVec3; 3], u: &[DVec3; 3]| {
+        let s = u.map(|p| orient(t[0], t[1], t[2], p));
+        s.iter().all(|&x| x > 0) || s.iter().all(|&x| x < 0)
+    };
+    if one_side(a, b) || one_side(b, a) {
+        return false;
+    }
     let edges = |t: &[DVec3; 3]| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])];
     let hits = |edges: [(DVec3, DVec3); 3], t: &[DVec3; 3], axis: usize| {
         edges

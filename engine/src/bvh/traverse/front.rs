@@ -31,17 +31,24 @@ const SEEDS: usize = 256;
 /// A walk's results: what `visit` collected, and the front it stopped at.
 struct Walk<T> {
     found: Vec<T>,
-    front: Vec<Pair>,
+    /// Where the walk stopped, when it is to be kept.
+    front: Option<Vec<Pair>>,
     /// Stops that were overlapping leaf pairs.
     leaf_pairs: usize,
 }
 
 impl<T> Walk<T> {
-    fn empty() -> Self {
+    fn new(keep_front: bool) -> Self {
         Self {
             found: Vec::new(),
-            front: Vec::new(),
+            front: keep_front.then(Vec::new),
             leaf_pairs: 0,
+        }
+    }
+
+    fn stop(&mut self, pair: Pair) {
+        if let Some(f) = &mut self.front {
+            f.push(pair);
         }
     }
 
@@ -53,7 +60,7 @@ impl<T> Walk<T> {
         lb: Leaf,
         visit: &impl Fn(Leaf, Leaf, &mut Vec<T>),
     ) {
-        self.front.push(pair);
+        self.stop(pair);
         self.leaf_pairs += 1;
         visit(la, lb, &mut self.found);
     }
@@ -67,7 +74,7 @@ impl<T> Walk<T> {
         visit: &impl Fn(Leaf, Leaf, &mut Vec<T>),
     ) {
         let (found, leaf_pairs) = (&mut self.found, &mut self.leaf_pairs);
-        let _ = descend(volumes, p, stack, Some(&mut self.front), &mut |la, lb| {
+        let _ = descend(volumes, p, stack, self.front.as_mut(), &mut |la, lb| {
             *leaf_pairs += 1;
             visit(la, lb, found);
             Flow::Continue(())
@@ -76,7 +83,9 @@ impl<T> Walk<T> {
 
     fn join(mut self, other: Self) -> Self {
         self.found.extend(other.found);
-        self.front.extend(other.front);
+        if let (Some(f), Some(g)) = (&mut self.front, other.front) {
+            f.extend(g);
+        }
         self.leaf_pairs += other.leaf_pairs;
         self
     }
@@ -86,9 +95,10 @@ impl<T> Walk<T> {
 fn walk_below<V: PairVolumes, T>(
     volumes: &V,
     starts: &[Pair],
+    keep_front: bool,
     visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync),
 ) -> Walk<T> {
-    let mut walk = Walk::empty();
+    let mut walk = Walk::new(keep_front);
     let mut stack = Vec::new();
     for &p in starts {
         walk.descend(volumes, p, &mut stack, visit);
@@ -102,9 +112,10 @@ fn walk_below<V: PairVolumes, T>(
 fn walk_from_root<V: PairVolumes, T: Send>(
     volumes: &V,
     root: Pair,
+    keep_front: bool,
     visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync),
 ) -> Walk<T> {
-    let mut walk = Walk::empty();
+    let mut walk = Walk::new(keep_front);
     if volumes.tree_a().nodes.is_empty() || volumes.tree_b().nodes.is_empty() {
         return walk;
     }
@@ -114,7 +125,7 @@ fn walk_from_root<V: PairVolumes, T: Send>(
         for &p in &level {
             let _ = expand(volumes, p, |pair, step| {
                 match step {
-                    Step::Apart => walk.front.push(pair),
+                    Step::Apart => walk.stop(pair),
                     Step::Leaves(la, lb) => walk.stop_at_leaves(pair, la, lb, visit),
                     Step::Inner => next.push(pair),
                 }
@@ -125,8 +136,8 @@ fn walk_from_root<V: PairVolumes, T: Send>(
     }
     let below = level
         .par_chunks(CHUNK.min(level.len().div_ceil(8)).max(1))
-        .map(|starts| walk_below(volumes, starts, visit))
-        .reduce(Walk::empty, Walk::join);
+        .map(|starts| walk_below(volumes, starts, keep_front, visit))
+        .reduce(|| Walk::new(keep_front), Walk::join);
     walk.join(below)
 }
 
@@ -141,7 +152,7 @@ pub fn par_leaf_pairs<V: PairVolumes, T: Send>(
     visit: impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync,
 ) -> Vec<T> {
     let root = if same { Pair::SELF_ROOT } else { Pair::ROOT };
-    walk_from_root(volumes, root, &visit).found
+    walk_from_root(volumes, root, false, &visit).found
 }
 
 /// Where the last frame's pair walk stopped, to start the next one from.
@@ -191,17 +202,18 @@ impl Front {
             self.pairs
                 .par_chunks(CHUNK)
                 .map(|stops| restart(volumes, stops, &visit))
-                .reduce(Walk::empty, Walk::join)
+                .reduce(|| Walk::new(true), Walk::join)
         } else {
             let root = if same { Pair::SELF_ROOT } else { Pair::ROOT };
-            walk_from_root(volumes, root, &visit)
+            walk_from_root(volumes, root, true, &visit)
         };
-        let share = walk.leaf_pairs as f64 / walk.front.len().max(1) as f64;
+        let pairs = walk.front.unwrap_or_default();
+        let share = walk.leaf_pairs as f64 / pairs.len().max(1) as f64;
         if !valid {
             self.fresh_share = share;
         }
         *self = Self {
-            pairs: walk.front,
+            pairs,
             trees,
             same,
             fresh_share: self.fresh_share,
@@ -219,11 +231,11 @@ fn restart<V: PairVolumes, T>(
     visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync),
 ) -> Walk<T> {
     let (a, b) = (volumes.tree_a(), volumes.tree_b());
-    let mut walk = Walk::empty();
+    let mut walk = Walk::new(true);
     let mut stack = Vec::new();
     for &p in stops {
         if !volumes.pair_overlaps(p) {
-            walk.front.push(p);
+            walk.stop(p);
             continue;
         }
         match (leaf(a, p.a), leaf(b, p.b)) {

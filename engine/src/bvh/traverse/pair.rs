@@ -150,24 +150,43 @@ impl PairVolumes for BoxVolumes<'_> {
     }
 }
 
+/// A side and the leaf it is, if it is one.
+type Child = (Slot, Option<Leaf>);
+
 /// The children of a side: the used slots of its node, or a leaf itself
 /// (a leaf paired with an inner node stays while the other side descends).
-fn children(tree: &Bvh4, side: Slot, out: &mut [Slot; 4]) -> usize {
+fn children(tree: &Bvh4, side: Slot, out: &mut [Child; 4]) -> usize {
     let node = if side == Slot::ROOT {
         0
     } else {
         let n = &tree.nodes[side.node()];
-        if n.is_leaf_slot(side.slot()) {
-            out[0] = side;
+        let s = side.slot();
+        if n.is_leaf_slot(s) {
+            out[0] = (
+                side,
+                Some(Leaf {
+                    first: n.child[s],
+                    count: n.count[s],
+                }),
+            );
             return 1;
         }
-        n.child[side.slot()] as usize
+        n.child[s] as usize
     };
     let n = &tree.nodes[node];
     let mut k = 0;
     for slot in 0..4 {
-        if n.is_leaf_slot(slot) || n.is_inner_slot(slot) {
-            out[k] = Slot::new(node, slot);
+        if n.is_leaf_slot(slot) {
+            out[k] = (
+                Slot::new(node, slot),
+                Some(Leaf {
+                    first: n.child[slot],
+                    count: n.count[slot],
+                }),
+            );
+            k += 1;
+        } else if n.is_inner_slot(slot) {
+            out[k] = (Slot::new(node, slot), None);
             k += 1;
         }
     }
@@ -204,7 +223,7 @@ pub(super) fn expand<V: PairVolumes>(
     mut child: impl FnMut(Pair, Step) -> Flow,
 ) -> Flow {
     let (a, b) = (volumes.tree_a(), volumes.tree_b());
-    let (mut sa, mut sb) = ([Slot::ROOT; 4], [Slot::ROOT; 4]);
+    let (mut sa, mut sb) = ([(Slot::ROOT, None); 4], [(Slot::ROOT, None); 4]);
     let ka = children(a, p.a, &mut sa);
     let kb = if p.same {
         sb = sa;
@@ -215,8 +234,8 @@ pub(super) fn expand<V: PairVolumes>(
     if ka == 0 || kb == 0 {
         return Flow::Continue(());
     }
-    let va: [V::A; 4] = std::array::from_fn(|i| volumes.volume_a(sa[i.min(ka - 1)]));
-    let vb: [V::B; 4] = std::array::from_fn(|j| volumes.volume_b(sb[j.min(kb - 1)]));
+    let va: [V::A; 4] = std::array::from_fn(|i| volumes.volume_a(sa[i.min(ka - 1)].0));
+    let vb: [V::B; 4] = std::array::from_fn(|j| volumes.volume_b(sb[j.min(kb - 1)].0));
     for i in 0..ka {
         // Within one subtree, each unordered pair of children once and
         // each child with itself.
@@ -224,13 +243,13 @@ pub(super) fn expand<V: PairVolumes>(
         for j in from..kb {
             let same = p.same && i == j;
             let pair = Pair {
-                a: sa[i],
-                b: sb[j],
+                a: sa[i].0,
+                b: sb[j].0,
                 same,
             };
             let step = if !same && !volumes.overlap(&va[i], &vb[j]) {
                 Step::Apart
-            } else if let (Some(la), Some(lb)) = (leaf(a, pair.a), leaf(b, pair.b)) {
+            } else if let (Some(la), Some(lb)) = (sa[i].1, sb[j].1) {
                 Step::Leaves(la, lb)
             } else {
                 Step::Inner
