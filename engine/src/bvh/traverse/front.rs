@@ -3,18 +3,21 @@
 //!
 //! A walk of the bounding-volume test tree stops at two kinds of node:
 //! pairs of overlapping leaves and pairs found apart. Those stops form a
-//! cut of the BVTT (every root-to-leaf path crosses exactly one), so when
-//! the trees are refitted on the same topology the next frame can start
-//! from them instead of the root: a stop that still overlaps is descended
-//! (or, as a leaf pair, visited), one that is still apart stays. Volumes
-//! nest after a refit, so nothing below a pair apart can touch and the
-//! walk from the front finds exactly what a walk from the root finds.
+//! cut of the BVTT (every root-to-leaf path crosses exactly one), and so
+//! does the cut the walk records, where a node whose children are all
+//! stops stands for them (a wide BVTT node has up to sixteen children, and
+//! one expansion tests them together). When the trees are refitted on the
+//! same topology the next frame starts from that cut instead of the root:
+//! a node that still overlaps is descended (or, as a leaf pair, visited),
+//! one that is now apart stays. Volumes nest after a refit, so nothing
+//! below a pair apart can touch, and the walk from the front finds exactly
+//! what a walk from the root finds.
 //!
 //! The dissertation moves a front up again where parents stop
-//! overlapping. Here, instead, a front that has gone stale (its share of
-//! overlapping stops has fallen below half of what a fresh walk gave) is
-//! dropped and the next frame walks from the root, which makes a fresh
-//! one: simpler, and the cost stays within twice that of a fresh front.
+//! overlapping. Here, instead, a front is renewed by a walk from the root
+//! every few frames, or sooner when it has gone stale (its share of
+//! overlapping stops has fallen below half of what a fresh walk gave):
+//! simpler, and a front never costs much more than a fresh one.
 
 use rayon::prelude::*;
 
@@ -166,7 +169,13 @@ pub struct Front {
     /// from the root, and of the last frame.
     fresh_share: f64,
     share: f64,
+    /// Walks from this front since the last walk from the root.
+    age: u32,
 }
+
+/// Walks a front serves before one from the root replaces it: a front
+/// never moves up where pairs have come apart, so it is renewed.
+const RENEW_AFTER: u32 = 8;
 
 impl Front {
     /// An empty front: its first walk starts from the root.
@@ -197,7 +206,8 @@ impl Front {
         let valid = !self.pairs.is_empty()
             && self.trees == trees
             && self.same == same
-            && self.share * 2.0 >= self.fresh_share;
+            && self.share * 2.0 >= self.fresh_share
+            && self.age < RENEW_AFTER;
         let walk = if valid {
             self.pairs
                 .par_chunks(CHUNK)
@@ -218,6 +228,7 @@ impl Front {
             same,
             fresh_share: self.fresh_share,
             share,
+            age: if valid { self.age + 1 } else { 0 },
         };
         walk.found
     }

@@ -262,9 +262,13 @@ pub(super) fn expand<V: PairVolumes>(
 
 /// Walks the BVTT below `start` (whose own overlap the caller has
 /// decided): calls `visit` for every pair of overlapping leaves, and
-/// records in `front` where it stopped, the leaf pairs it visited and the
-/// pairs it found apart. A leaf paired with itself is visited, since its
-/// own primitives may touch one another. `visit` breaks to end the walk.
+/// records in `front` a cut of the BVTT where it stopped. A node all of
+/// whose children are stops (leaf pairs visited, pairs found apart) is
+/// recorded itself, in place of its up to sixteen children: restarting
+/// there costs one expansion, as the walk did, instead of a volume fetch
+/// and test per child. Other stops are recorded one by one. A leaf paired
+/// with itself is visited, since its own primitives may touch one
+/// another. `visit` breaks to end the walk.
 pub(super) fn descend<V: PairVolumes>(
     volumes: &V,
     start: Pair,
@@ -278,17 +282,29 @@ pub(super) fn descend<V: PairVolumes>(
     stack.clear();
     stack.push(start);
     while let Some(p) = stack.pop() {
+        let (mut stops, mut count, mut inner) = ([Pair::ROOT; 16], 0, false);
         expand(volumes, p, |pair, step| {
             match step {
-                Step::Apart => front.iter_mut().for_each(|f| f.push(pair)),
-                Step::Leaves(la, lb) => {
-                    front.iter_mut().for_each(|f| f.push(pair));
-                    visit(la, lb)?;
+                Step::Apart => {}
+                Step::Leaves(la, lb) => visit(la, lb)?,
+                Step::Inner => {
+                    inner = true;
+                    stack.push(pair);
+                    return Flow::Continue(());
                 }
-                Step::Inner => stack.push(pair),
             }
+            stops[count] = pair;
+            count += 1;
             Flow::Continue(())
         })?;
+        if let Some(f) = front.as_deref_mut() {
+            // The root has no volume of its own to test again.
+            if inner || p.a == Slot::ROOT || p.b == Slot::ROOT {
+                f.extend_from_slice(&stops[..count]);
+            } else {
+                f.push(p);
+            }
+        }
     }
     Flow::Continue(())
 }
