@@ -118,7 +118,9 @@ fn cube(scale: f32, shift_x: impl Fn(f32) -> f32) -> TriangleMesh {
 fn face_contacts(scale: f32) -> Vec<(u32, u32)> {
     let options = BuildOptions::default();
     let a = MeshBvh::build(&cube(scale, |x| x), &options);
-    let b = MeshBvh::build(&cube(scale, f32::next_up), &options);
+    // The next float up (coordinates here are 0 or positive).
+    let next_up = |x: f32| f32::from_bits(x.to_bits() + 1);
+    let b = MeshBvh::build(&cube(scale, next_up), &options);
     let at = RigidTransform::default();
     let place = |mesh| Placed {
         mesh,
