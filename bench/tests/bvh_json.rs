@@ -3,22 +3,29 @@
 
 use std::process::Command;
 
+mod common;
+
 #[test]
 fn bvh_json_has_the_documented_fields() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/shoebox.json");
     let dir = std::env::temp_dir().join(format!("frusta-bvh-json-{}", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_frusta-bench"))
-        .args(["bvh", "--mesh", scene, "--rays", "4096", "--rounds", "3"])
-        .args(["--build-runs", "1", "--only", "parry3d", "--json", "--save"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let stdout = common::run_bench([
+        "bvh",
+        "--mesh",
+        scene,
+        "--rays",
+        "4096",
+        "--rounds",
+        "3",
+        "--build-runs",
+        "1",
+        "--only",
+        "parry3d",
+        "--json",
+        "--save",
+        dir.to_str().unwrap(),
+    ]);
+    let doc: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     let saved: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("bvh.json")).unwrap()).unwrap();
     assert_eq!(doc, saved);

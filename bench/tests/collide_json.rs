@@ -2,25 +2,19 @@
 //! cloth and a bundled scene moving through its copy, prints the
 //! documented fields and saves them with their provenance.
 
-use std::process::Command;
+mod common;
 
 #[test]
 fn collide_json_has_the_documented_fields() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/shoebox.json");
     let dir = std::env::temp_dir().join(format!("frusta-collide-json-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_frusta-bench"))
-        .args(["collide", "--cloth", "24", "--mesh", scene, "--frames", "4"])
-        .args(["--rounds", "1", "--json", "--save"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let dir_arg = dir.to_str().unwrap();
+    let stdout = common::run_bench([
+        "collide", "--cloth", "24", "--mesh", scene, "--frames", "4", "--rounds", "1", "--json",
+        "--save", dir_arg,
+    ]);
+    let doc: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     let saved: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("collide.json")).unwrap()).unwrap();
     assert_eq!(doc["runs"], saved["runs"]);

@@ -2,27 +2,19 @@
 //! image source and nothing else, measured against the independent
 //! reference, and says where the run came from.
 
-use std::process::Command;
+mod common;
 
 #[test]
 fn shoebox_quick_sweep_has_full_recall_and_no_false_paths() {
-    let out = Command::new(env!("CARGO_BIN_EXE_frusta-bench"))
-        .args([
-            "propagation",
-            "--quick",
-            "--json",
-            "--scene",
-            "shoebox",
-            "--no-peer",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let mut lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+    let stdout = common::run_bench([
+        "propagation",
+        "--quick",
+        "--json",
+        "--scene",
+        "shoebox",
+        "--no-peer",
+    ]);
+    let mut lines: Vec<serde_json::Value> = stdout
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();

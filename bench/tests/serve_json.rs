@@ -1,32 +1,24 @@
 //! `frusta-bench serve --quick --json` on the shoebox: every phase answers
 //! without errors and reports sane figures (no timing is asserted).
 
-use std::process::Command;
+mod common;
 
 #[test]
 fn shoebox_quick_load_and_streams_have_no_errors() {
-    let out = Command::new(env!("CARGO_BIN_EXE_frusta-bench"))
-        .args([
-            "serve",
-            "--quick",
-            "--json",
-            "--scene",
-            "shoebox",
-            "--clients",
-            "4",
-            "--seconds",
-            "1",
-            "--stream-seconds",
-            "0.5",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let rows: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+    let stdout = common::run_bench([
+        "serve",
+        "--quick",
+        "--json",
+        "--scene",
+        "shoebox",
+        "--clients",
+        "4",
+        "--seconds",
+        "1",
+        "--stream-seconds",
+        "0.5",
+    ]);
+    let rows: Vec<serde_json::Value> = stdout
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::Rng;
+use common::{grid_triangles, Rng};
 use frusta_engine::bvh::obb::ObbTree;
 use frusta_engine::bvh::traverse::front::Front;
 use frusta_engine::bvh::{BuildOptions, MeshBvh};
@@ -31,14 +31,7 @@ fn folded_sheet(n: usize, fold: f32, ripple: f32) -> TriangleMesh {
             positions.push(p);
         }
     }
-    let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    let mut triangles = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-        }
-    }
+    let triangles = grid_triangles(n, n);
     TriangleMesh::new(positions, triangles).unwrap()
 }
 

@@ -184,14 +184,7 @@ fn a_folded_sheet_passing_through_itself_meets_itself_and_a_still_one_does_not()
     // 5 cm below it: each far triangle passes through the near ones under
     // it halfway through the step.
     let (n, w) = (20usize, 2usize);
-    let index = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    let mut triangles = Vec::new();
-    for j in 0..w {
-        for i in 0..n {
-            triangles.push([index(i, j), index(i + 1, j), index(i + 1, j + 1)]);
-            triangles.push([index(i, j), index(i + 1, j + 1), index(i, j + 1)]);
-        }
-    }
+    let triangles = common::grid_triangles(n, w);
     let sheet = |height: f32| {
         let mut positions = Vec::new();
         for j in 0..=w {

@@ -187,6 +187,16 @@ struct Replay {
     pairs: Frames,
 }
 
+impl Replay {
+    fn new() -> Self {
+        Self {
+            refit_ms: 0.0,
+            query_ms: 0.0,
+            pairs: Vec::new(),
+        }
+    }
+}
+
 fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
@@ -197,11 +207,7 @@ fn ours(case: &Case, obb: bool, front: bool) -> Result<Replay, String> {
     let mut bvh = MeshBvh::build(&case.mesh, &BuildOptions::default());
     let mut obbs = obb.then(|| ObbTree::fit(&bvh));
     let mut kept = front.then(Front::new);
-    let mut replay = Replay {
-        refit_ms: 0.0,
-        query_ms: 0.0,
-        pairs: Vec::new(),
-    };
+    let mut replay = Replay::new();
     match &case.motion {
         Motion::Deform(frames) => {
             for mesh in frames {
@@ -242,11 +248,7 @@ fn ours(case: &Case, obb: bool, front: bool) -> Result<Replay, String> {
 /// One replay of the case with parry3d.
 fn peer(case: &Case) -> Replay {
     let mut mesh = parry::mesh(case.mesh.positions(), case.mesh.triangles());
-    let mut replay = Replay {
-        refit_ms: 0.0,
-        query_ms: 0.0,
-        pairs: Vec::new(),
-    };
+    let mut replay = Replay::new();
     match &case.motion {
         Motion::Deform(frames) => {
             for f in frames {

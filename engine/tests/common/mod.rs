@@ -69,3 +69,17 @@ pub fn object(name: &str, mesh: TriangleMesh, transform: RigidTransform) -> Scen
         dynamic: true,
     }
 }
+
+/// The triangles of a grid of `n` x `m` quads on `(n + 1) x (m + 1)`
+/// vertices numbered row by row, two triangles per quad.
+pub fn grid_triangles(n: usize, m: usize) -> Vec<[u32; 3]> {
+    let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    let mut triangles = Vec::with_capacity(2 * n * m);
+    for j in 0..m {
+        for i in 0..n {
+            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    triangles
+}
