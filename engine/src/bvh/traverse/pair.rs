@@ -15,7 +15,8 @@
 use glam::Vec3A;
 
 use super::Flow;
-use crate::bvh::wide::Bvh4;
+use super::{NodeTest, OverlapTest};
+use crate::bvh::wide::{Bvh4, Node4};
 use crate::geometry::{Aabb, RigidTransform};
 
 /// A run of leaf slots, `first..first + count`, of a tree's leaf order.
@@ -96,6 +97,13 @@ pub trait PairVolumes: Sync {
     fn volume_b(&self, slot: Slot) -> Self::B;
     fn overlap(&self, a: &Self::A, b: &Self::B) -> bool;
 
+    /// The slots of `node` (a node of tree b) whose volumes may overlap `a`,
+    /// as a bit per slot, tested together; `None` where the volumes have no
+    /// such test (the walk then tests one slot at a time).
+    fn node_overlaps(&self, _a: &Self::A, _node: &Node4) -> Option<u32> {
+        None
+    }
+
     /// Whether BVTT node `pair` overlaps (a subtree with itself always does).
     fn pair_overlaps(&self, pair: Pair) -> bool {
         pair.same || self.overlap(&self.volume_a(pair.a), &self.volume_b(pair.b))
@@ -148,14 +156,23 @@ impl PairVolumes for BoxVolumes<'_> {
     fn overlap(&self, a: &Aabb, b: &Aabb) -> bool {
         a.overlaps(b)
     }
+
+    /// Unmoved, ungrown boxes: the node's own boxes, four per compare (the
+    /// box query's node test).
+    #[inline]
+    fn node_overlaps(&self, a: &Aabb, node: &Node4) -> Option<u32> {
+        (self.b_to_a.is_none() && self.margin == 0.0)
+            .then(|| OverlapTest::new(*a).test4(node, 0.0).1)
+    }
 }
 
 /// A side and the leaf it is, if it is one.
 type Child = (Slot, Option<Leaf>);
 
 /// The children of a side: the used slots of its node, or a leaf itself
-/// (a leaf paired with an inner node stays while the other side descends).
-fn children(tree: &Bvh4, side: Slot, out: &mut [Child; 4]) -> usize {
+/// (a leaf paired with an inner node stays while the other side descends);
+/// how many, and the node whose slots they are.
+fn children(tree: &Bvh4, side: Slot, out: &mut [Child; 4]) -> (usize, Option<usize>) {
     let node = if side == Slot::ROOT {
         0
     } else {
@@ -169,7 +186,7 @@ fn children(tree: &Bvh4, side: Slot, out: &mut [Child; 4]) -> usize {
                     count: n.count[s],
                 }),
             );
-            return 1;
+            return (1, None);
         }
         n.child[s] as usize
     };
@@ -190,7 +207,7 @@ fn children(tree: &Bvh4, side: Slot, out: &mut [Child; 4]) -> usize {
             k += 1;
         }
     }
-    k
+    (k, Some(node))
 }
 
 /// The leaf a side is, if it is one.
@@ -224,10 +241,10 @@ pub(super) fn expand<V: PairVolumes>(
 ) -> Flow {
     let (a, b) = (volumes.tree_a(), volumes.tree_b());
     let (mut sa, mut sb) = ([(Slot::ROOT, None); 4], [(Slot::ROOT, None); 4]);
-    let ka = children(a, p.a, &mut sa);
-    let kb = if p.same {
+    let (ka, node_a) = children(a, p.a, &mut sa);
+    let (kb, node_b) = if p.same {
         sb = sa;
-        ka
+        (ka, node_a)
     } else {
         children(b, p.b, &mut sb)
     };
@@ -235,7 +252,15 @@ pub(super) fn expand<V: PairVolumes>(
         return Flow::Continue(());
     }
     let va: [V::A; 4] = std::array::from_fn(|i| volumes.volume_a(sa[i.min(ka - 1)].0));
-    let vb: [V::B; 4] = std::array::from_fn(|j| volumes.volume_b(sb[j.min(kb - 1)].0));
+    // Where the volumes allow, each of a's children against all of b's at
+    // once (by slot); otherwise b's volumes, fetched once.
+    let masks: [Option<u32>; 4] = std::array::from_fn(|i| {
+        let n = node_b.filter(|_| i < ka)?;
+        volumes.node_overlaps(&va[i], &b.nodes[n])
+    });
+    let fetch = masks[..ka].iter().any(Option::is_none);
+    let vb: [Option<V::B>; 4] =
+        std::array::from_fn(|j| (fetch && j < kb).then(|| volumes.volume_b(sb[j].0)));
     for i in 0..ka {
         // Within one subtree, each unordered pair of children once and
         // each child with itself.
@@ -247,7 +272,12 @@ pub(super) fn expand<V: PairVolumes>(
                 b: sb[j].0,
                 same,
             };
-            let step = if !same && !volumes.overlap(&va[i], &vb[j]) {
+            let overlap = match (masks[i], &vb[j]) {
+                (Some(m), _) => m >> sb[j].0.slot() & 1 != 0,
+                (None, Some(vb)) => volumes.overlap(&va[i], vb),
+                (None, None) => true,
+            };
+            let step = if !same && !overlap {
                 Step::Apart
             } else if let (Some(la), Some(lb)) = (sa[i].1, sb[j].1) {
                 Step::Leaves(la, lb)
