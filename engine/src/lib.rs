@@ -34,9 +34,11 @@
 pub mod acoustics;
 pub mod bvh;
 pub mod collision;
+mod deadline;
 pub mod error;
 pub mod geometry;
 pub mod query;
 pub mod scene;
 
+pub use deadline::Cancel;
 pub use error::{Cause, Error, Result};

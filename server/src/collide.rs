@@ -4,12 +4,14 @@
 //! with object moves ([`run`]).
 
 use std::collections::HashSet;
+use std::time::Instant;
 
 use frusta_api::collisions::{CollisionKind, CollisionRequest, CollisionResponse};
 use frusta_api::objects::{EditReport, ObjectMove};
 use frusta_engine::collision::continuous::EndPose;
 use frusta_engine::collision::{CollisionQuery, CollisionTest, Found};
 
+use crate::config::Limits;
 use crate::error::ApiError;
 use crate::registry::{LiveScene, ObjectEdit, PreparedEdit, Registry, SceneEntry};
 use crate::routes::objects::{edit_of, object_index};
@@ -124,16 +126,27 @@ fn answer(
 /// Runs `plan` on the scene as it is, or with `edits` applied and stored
 /// in the same step (a continuous query sweeps from before them to after).
 /// One report per edit. Blocking.
+///
+/// The compute limit bounds a query on the scene as it is and a
+/// continuous query, which runs before the edits are stored: past it,
+/// nothing is stored. A discrete or proximity query with edits runs after
+/// they are stored and is not cut off, so an answer never reports an
+/// error for edits that were kept (such a query costs one pair walk).
 pub fn run(
     registry: &Registry,
     entry: &SceneEntry,
     plan: &Plan,
     edits: &[(usize, ObjectEdit)],
+    limits: &Limits,
 ) -> Result<(Vec<EditReport>, CollisionResponse), ApiError> {
     let engine = ApiError::from_engine;
+    let deadline = Some(Instant::now() + limits.max_compute());
     if edits.is_empty() {
         let live = entry.read();
-        let found = plan.query.run(live.acoustic.bvh()).map_err(engine)?;
+        let found = plan
+            .query
+            .run(live.acoustic.bvh(), deadline)
+            .map_err(engine)?;
         return Ok((Vec::new(), answer(entry, &live, plan, found)));
     }
     // A continuous query runs before the edits (over the step they make),
@@ -146,7 +159,8 @@ pub fn run(
             continuous
                 .then(|| {
                     let ends = ends(before, prepared);
-                    plan.query.run_during(before.acoustic.bvh(), &ends)
+                    plan.query
+                        .run_during(before.acoustic.bvh(), &ends, deadline)
                 })
                 .transpose()
                 .map_err(engine)
@@ -154,7 +168,7 @@ pub fn run(
         |after, during| {
             let found = match during {
                 Some(found) => Ok(found),
-                None => plan.query.run(after.acoustic.bvh()),
+                None => plan.query.run(after.acoustic.bvh(), None),
             };
             found.map(|found| answer(entry, after, plan, found))
         },

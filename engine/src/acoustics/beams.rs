@@ -114,9 +114,9 @@ impl Beams {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::acoustics::deadline::Deadline;
     use crate::acoustics::tracer::{trace, trace_beams};
     use crate::acoustics::{test_shoebox, AcousticScene, CellAssignment, TraceOptions};
+    use crate::deadline::Deadline;
 
     #[test]
     fn beams_propose_what_tracing_proposes() {

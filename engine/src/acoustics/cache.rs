@@ -5,9 +5,9 @@
 use glam::DVec3;
 
 use super::beams::Beams;
-use super::deadline::Deadline;
 use super::tracer::{trace_keeping, TraceOptions};
 use super::{AcousticScene, FoundPaths};
+use crate::deadline::Deadline;
 use crate::Result;
 
 /// Beams per source, valid for one scene state, trace options and

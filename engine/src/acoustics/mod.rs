@@ -23,7 +23,7 @@ pub mod brute_force;
 mod cache;
 mod classify;
 mod cull;
-mod deadline;
+
 pub mod frustum;
 mod merge;
 pub mod path;
@@ -35,9 +35,9 @@ pub mod signal;
 pub mod surfaces;
 pub mod tracer;
 
+pub use crate::deadline::Cancel;
 pub use beams::Beams;
 pub use cache::BeamCache;
-pub use deadline::Cancel;
 pub use propagation::{
     simulate, simulate_cached, simulate_until, Response, SimulationOptions, SoundPath,
 };

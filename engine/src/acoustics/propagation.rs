@@ -7,12 +7,12 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
-use super::deadline::{Cancel, Deadline};
 use super::path::ValidPath;
 use super::signal::{
     self, AirConditions, Arrival, ImpulseResponse, ImpulseResponseOptions, RoomParameters,
 };
 use super::{AcousticScene, BeamCache, CellAssignment, TraceOptions};
+use crate::deadline::{Cancel, Deadline};
 use crate::scene::{Bands, BAND_COUNT, OCTAVE_BANDS_HZ};
 use crate::{Error, Result};
 

@@ -6,11 +6,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::{DVec3, Vec3};
 
 use super::beams::Beams;
-use super::deadline::Deadline;
 use super::path::{dedup_paths, validate, Event, ValidPath};
 use super::surfaces::Surfaces;
 use super::tracer::{trace, trace_beams, TraceInput, TraceOptions, TraceStats};
 use crate::bvh::{BuildOptions, UpdateReport};
+use crate::deadline::Deadline;
 use crate::geometry::{RigidTransform, TriangleMesh, MAX_COORDINATE};
 use crate::query::SceneBvh;
 use crate::scene::{check_material_table, Material, MaterialId, Scene};

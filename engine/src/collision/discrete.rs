@@ -11,6 +11,7 @@ use super::distance::triangle_distance;
 use super::mesh_pairs::{contact_slots, self_contact_slots, Placed};
 use super::{world_corners, world_point};
 use crate::bvh::{Instance, SceneBvh};
+use crate::deadline::{Deadline, CLOCK_PERIOD};
 use crate::Result;
 
 /// Two intersecting triangles, as (object, mesh-order triangle) each.
@@ -29,11 +30,21 @@ fn for_each_candidate(
     a: u32,
     b: u32,
     margin: f32,
+    stop: &Deadline,
     mut visit: impl FnMut(Contact, &[DVec3; 3], &[DVec3; 3]),
 ) -> Result<()> {
     let instances = world.instances();
     let mut moved_b: Vec<[DVec3; 3]> = Vec::new();
+    let mut leaf_pairs = 0u64;
+    let mut late = Ok(());
     world.leaves_within(a, b, margin, |la, lb| {
+        leaf_pairs += 1;
+        if leaf_pairs % CLOCK_PERIOD == 1 {
+            late = stop.check();
+            if late.is_err() {
+                return ControlFlow::Break(());
+            }
+        }
         let (ia, ib) = (&instances[a as usize], &instances[b as usize]);
         let (to_a, to_b) = (world_corners(ia.to_world()), world_corners(ib.to_world()));
         let (ta, tb) = (ia.bvh().leaf_triangles(), ib.bvh().leaf_triangles());
@@ -51,14 +62,15 @@ fn for_each_candidate(
             }
         }
         ControlFlow::Continue(())
-    })
+    })?;
+    late
 }
 
 /// Every pair of intersecting triangles between objects `a` and `b`,
 /// sorted: the pair walk of their trees finds the candidates, and each is
 /// decided exactly ([`triangles_intersect`]) on the world coordinates.
 pub fn object_contacts(world: &SceneBvh, a: u32, b: u32) -> Result<Vec<Contact>> {
-    Ok(object_contacts_at(world, a, b)?
+    Ok(object_contacts_at(world, a, b, &Deadline::none())?
         .into_iter()
         .map(|(c, _)| c)
         .collect())
@@ -66,12 +78,17 @@ pub fn object_contacts(world: &SceneBvh, a: u32, b: u32) -> Result<Vec<Contact>>
 
 /// [`object_contacts`] with where each pair meets, in the world
 /// ([`contact_points`]).
-pub fn object_contacts_at(world: &SceneBvh, a: u32, b: u32) -> Result<Vec<(Contact, Vec<DVec3>)>> {
+pub(crate) fn object_contacts_at(
+    world: &SceneBvh,
+    a: u32,
+    b: u32,
+    stop: &Deadline,
+) -> Result<Vec<(Contact, Vec<DVec3>)>> {
     let (ia, ib) = (instance(world, a)?, instance(world, b)?);
     let (to_a, to_b) = (world_corners(ia.to_world()), world_corners(ib.to_world()));
     let (ta, tb) = (ia.bvh().leaf_triangles(), ib.bvh().leaf_triangles());
     let (ida, idb) = (ia.bvh().prim_ids(), ib.bvh().prim_ids());
-    let mut contacts: Vec<_> = contact_slots(placed(ia), placed(ib), None)?
+    let mut contacts: Vec<_> = contact_slots(placed(ia), placed(ib), None, stop)?
         .into_iter()
         .map(|(x, y)| {
             let (x, y) = (x as usize, y as usize);
@@ -109,7 +126,7 @@ pub fn world_contacts(world: &SceneBvh) -> Vec<Contact> {
 /// where the coordinates are exact: self-intersection does not change when
 /// an object moves rigidly.
 pub fn self_contacts(world: &SceneBvh, object: u32) -> Result<Vec<Contact>> {
-    Ok(self_contacts_at(world, object)?
+    Ok(self_contacts_at(world, object, &Deadline::none())?
         .into_iter()
         .map(|(c, _)| c)
         .collect())
@@ -117,13 +134,17 @@ pub fn self_contacts(world: &SceneBvh, object: u32) -> Result<Vec<Contact>> {
 
 /// [`self_contacts`] with where each pair meets, in the world
 /// ([`contact_points`]).
-pub fn self_contacts_at(world: &SceneBvh, object: u32) -> Result<Vec<(Contact, Vec<DVec3>)>> {
+pub(crate) fn self_contacts_at(
+    world: &SceneBvh,
+    object: u32,
+    stop: &Deadline,
+) -> Result<Vec<(Contact, Vec<DVec3>)>> {
     let inst = instance(world, object)?;
     let tris = inst.bvh().leaf_triangles();
     let ids = inst.bvh().prim_ids();
     let to_world = world_point(inst.to_world());
     let exact = |t: &[Vec3A; 3]| t.map(|p| Vec3::from(p).as_dvec3());
-    let mut contacts: Vec<_> = self_contact_slots(inst.bvh(), None, None)?
+    let mut contacts: Vec<_> = self_contact_slots(inst.bvh(), None, None, stop)?
         .into_iter()
         .map(|(x, y)| {
             let (x, y) = (x as usize, y as usize);
@@ -169,6 +190,17 @@ pub fn object_proximity(
     b: u32,
     distance: f64,
 ) -> Result<Vec<(Contact, f64)>> {
+    proximity_until(world, a, b, distance, &Deadline::none())
+}
+
+/// [`object_proximity`] until `stop`.
+pub(crate) fn proximity_until(
+    world: &SceneBvh,
+    a: u32,
+    b: u32,
+    distance: f64,
+    stop: &Deadline,
+) -> Result<Vec<(Contact, f64)>> {
     if !(distance >= 0.0 && distance.is_finite()) {
         return Err(crate::Error::InvalidOption {
             field: "distance".into(),
@@ -178,7 +210,7 @@ pub fn object_proximity(
     let mut near = Vec::new();
     // The broad phase in f32, grown by rounding of the distance.
     let margin = (distance * (1.0 + 1e-6)) as f32 * (1.0 + 4.0 * f32::EPSILON);
-    for_each_candidate(world, a, b, margin, |contact, wa, wb| {
+    for_each_candidate(world, a, b, margin, stop, |contact, wa, wb| {
         let d = triangle_distance(wa, wb);
         if d <= distance {
             near.push((contact, d));

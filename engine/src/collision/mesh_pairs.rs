@@ -11,7 +11,9 @@ use super::world_corners;
 use crate::bvh::obb::{ObbTree, ObbVolumes};
 use crate::bvh::traverse::front::{par_leaf_pairs, Front};
 use crate::bvh::traverse::pair::{BoxVolumes, Leaf, PairVolumes};
+use crate::bvh::traverse::Flow;
 use crate::bvh::MeshBvh;
+use crate::deadline::{Deadline, CLOCK_PERIOD};
 use crate::geometry::{Aabb, RigidTransform};
 use crate::Result;
 
@@ -24,17 +26,31 @@ pub struct Placed<'a> {
     pub obbs: Option<&'a ObbTree>,
 }
 
-/// Runs the walk over `volumes`, from `front` when given.
+/// Runs the walk over `volumes`, from `front` when given, until `stop`.
 fn walk<V: PairVolumes>(
     volumes: &V,
     same: bool,
     front: Option<&mut Front>,
+    stop: &Deadline,
     visit: impl Fn(Leaf, Leaf, &mut Vec<(u32, u32)>) + Sync,
-) -> Vec<(u32, u32)> {
-    match front {
+) -> Result<Vec<(u32, u32)>> {
+    let visit = |la: Leaf, lb: Leaf, out: &mut Vec<(u32, u32)>| {
+        // The clock is read for about one pair of leaves in CLOCK_PERIOD,
+        // picked by their slots (the visits share no counter); the flag it
+        // raises, for every pair.
+        let read = (la.first.wrapping_mul(31) ^ lb.first) % CLOCK_PERIOD as u32 == 0;
+        if (if read { stop.check() } else { stop.expired() }).is_err() {
+            return Flow::Break(());
+        }
+        visit(la, lb, out);
+        Flow::Continue(())
+    };
+    let found = match front {
         Some(f) => f.leaf_pairs(volumes, same, visit),
         None => par_leaf_pairs(volumes, same, visit),
-    }
+    };
+    stop.expired()?;
+    Ok(found)
 }
 
 fn triangle_box([a, b, c]: &[Vec3A; 3]) -> Aabb {
@@ -59,6 +75,7 @@ pub(crate) fn contact_slots(
     a: Placed,
     b: Placed,
     front: Option<&mut Front>,
+    stop: &Deadline,
 ) -> Result<Vec<(u32, u32)>> {
     let b_to_a = (!a.to_world.is_identity() || !b.to_world.is_identity())
         .then(|| b.to_world.then(&a.to_world.inverse()));
@@ -86,7 +103,7 @@ pub(crate) fn contact_slots(
     Ok(match (a.obbs, b.obbs) {
         (Some(oa), Some(ob)) => {
             let volumes = ObbVolumes::new((a.mesh, oa), (b.mesh, ob), b_to_a)?;
-            walk(&volumes, false, front, visit)
+            walk(&volumes, false, front, stop, visit)?
         }
         _ => {
             let volumes = BoxVolumes {
@@ -95,7 +112,7 @@ pub(crate) fn contact_slots(
                 b_to_a,
                 margin: 0.0,
             };
-            walk(&volumes, false, front, visit)
+            walk(&volumes, false, front, stop, visit)?
         }
     })
 }
@@ -107,6 +124,7 @@ pub(crate) fn self_contact_slots(
     mesh: &MeshBvh,
     obbs: Option<&ObbTree>,
     front: Option<&mut Front>,
+    stop: &Deadline,
 ) -> Result<Vec<(u32, u32)>> {
     let tris = mesh.leaf_triangles();
     // Each triangle's box once, not once per leaf pair it is in (a cloth's
@@ -148,7 +166,7 @@ pub(crate) fn self_contact_slots(
     Ok(match obbs {
         Some(o) => {
             let volumes = ObbVolumes::new((mesh, o), (mesh, o), None)?;
-            walk(&volumes, true, front, visit)
+            walk(&volumes, true, front, stop, visit)?
         }
         None => {
             let volumes = BoxVolumes {
@@ -157,7 +175,7 @@ pub(crate) fn self_contact_slots(
                 b_to_a: None,
                 margin: 0.0,
             };
-            walk(&volumes, true, front, visit)
+            walk(&volumes, true, front, stop, visit)?
         }
     })
 }
@@ -184,7 +202,7 @@ pub(crate) fn self_contact_slots(
 /// ```
 pub fn mesh_contacts(a: Placed, b: Placed, front: Option<&mut Front>) -> Result<Vec<(u32, u32)>> {
     let (ia, ib) = (a.mesh.prim_ids(), b.mesh.prim_ids());
-    let mut pairs: Vec<(u32, u32)> = contact_slots(a, b, front)?
+    let mut pairs: Vec<(u32, u32)> = contact_slots(a, b, front, &Deadline::none())?
         .into_iter()
         .map(|(x, y)| (ia[x as usize], ib[y as usize]))
         .collect();
@@ -201,7 +219,7 @@ pub fn mesh_self_contacts(
     front: Option<&mut Front>,
 ) -> Result<Vec<(u32, u32)>> {
     let ids = mesh.prim_ids();
-    let mut pairs: Vec<(u32, u32)> = self_contact_slots(mesh, obbs, front)?
+    let mut pairs: Vec<(u32, u32)> = self_contact_slots(mesh, obbs, front, &Deadline::none())?
         .into_iter()
         .map(|(x, y)| {
             let (p, q) = (ids[x as usize], ids[y as usize]);

@@ -16,10 +16,7 @@ use std::ops::ControlFlow;
 use glam::{DQuat, DVec3, Vec3, Vec3A};
 
 pub use contact::contact_points;
-pub use discrete::{
-    object_contacts, object_contacts_at, object_proximity, self_contacts, self_contacts_at,
-    world_contacts, Contact,
-};
+pub use discrete::{object_contacts, object_proximity, self_contacts, world_contacts, Contact};
 pub use distance::triangle_distance;
 pub use mesh_pairs::{mesh_contacts, mesh_self_contacts, Placed};
 pub use query::{all_pairs, CollisionQuery, CollisionTest, Found};

@@ -3,11 +3,17 @@
 //! it is or over a step of motion. What the service and the command line
 //! answer, in one place.
 
+use std::time::Instant;
+
 use glam::DVec3;
 
-use super::continuous::{self_sweep_contacts, sweep_contacts, CcdOptions, EndPose, Sweep};
-use super::{object_contacts_at, object_proximity, self_contacts_at, Contact};
+use super::continuous::{
+    self_sweep_contacts_until, sweep_contacts_until, CcdOptions, EndPose, Sweep,
+};
+use super::discrete::{object_contacts_at, proximity_until, self_contacts_at};
+use super::Contact;
 use crate::bvh::SceneBvh;
+use crate::deadline::Deadline;
 use crate::{Error, Result};
 
 /// The kind of test.
@@ -109,44 +115,60 @@ impl CollisionQuery {
     }
 
     /// Runs the query in the world as it is (a continuous query with
-    /// nothing moving finds what touches now, at time 0).
-    pub fn run(&self, world: &SceneBvh) -> Result<Vec<Found>> {
+    /// nothing moving finds what touches now, at time 0), failing with
+    /// [`Error::DeadlineExceeded`] once `deadline` has passed.
+    pub fn run(&self, world: &SceneBvh, deadline: Option<Instant>) -> Result<Vec<Found>> {
         match self.test {
-            CollisionTest::Continuous { .. } => self.run_during(world, &[]),
-            _ => self.run_now(world),
+            CollisionTest::Continuous { .. } => self.run_during(world, &[], deadline),
+            _ => self.run_now(world, &Deadline::new(deadline, Instant::now())),
         }
     }
 
-    fn run_now(&self, world: &SceneBvh) -> Result<Vec<Found>> {
+    fn run_now(&self, world: &SceneBvh, stop: &Deadline) -> Result<Vec<Found>> {
         self.check(world.object_count())?;
         let mut found = Vec::new();
         for &(a, b) in &self.pairs {
+            // Each object pair reads the clock once at least, however
+            // little its walk finds to do.
+            stop.check()?;
             match self.test {
-                CollisionTest::Proximity { distance } => {
-                    found.extend(object_proximity(world, a, b, distance)?.into_iter().map(
-                        |(contact, d)| Found {
+                CollisionTest::Proximity { distance } => found.extend(
+                    proximity_until(world, a, b, distance, stop)?
+                        .into_iter()
+                        .map(|(contact, d)| Found {
                             contact,
                             points: Vec::new(),
                             distance: Some(d),
                             time: None,
-                        },
-                    ))
-                }
-                _ => found.extend(object_contacts_at(world, a, b)?.into_iter().map(discrete)),
+                        }),
+                ),
+                _ => found.extend(
+                    object_contacts_at(world, a, b, stop)?
+                        .into_iter()
+                        .map(discrete),
+                ),
             }
         }
         for &o in &self.selves {
-            found.extend(self_contacts_at(world, o)?.into_iter().map(discrete));
+            stop.check()?;
+            found.extend(self_contacts_at(world, o, stop)?.into_iter().map(discrete));
         }
         Ok(found)
     }
 
     /// Runs a continuous query over the step from the world as it is to
     /// `ends` (objects not named there stay), earliest contact first; a
-    /// discrete or proximity query ignores `ends`.
-    pub fn run_during(&self, world: &SceneBvh, ends: &[(u32, EndPose)]) -> Result<Vec<Found>> {
+    /// discrete or proximity query ignores `ends`. Fails with
+    /// [`Error::DeadlineExceeded`] once `deadline` has passed.
+    pub fn run_during(
+        &self,
+        world: &SceneBvh,
+        ends: &[(u32, EndPose)],
+        deadline: Option<Instant>,
+    ) -> Result<Vec<Found>> {
+        let stop = Deadline::new(deadline, Instant::now());
         let CollisionTest::Continuous { tolerance } = self.test else {
-            return self.run_now(world);
+            return self.run_now(world, &stop);
         };
         self.check(world.object_count())?;
         let size = f64::from(world.bounds().extent().max_element());
@@ -181,14 +203,20 @@ impl CollisionQuery {
         };
         let mut found: Vec<Found> = Vec::new();
         for &(a, b) in &self.pairs {
+            stop.check()?;
             let (sa, sb) = (sweep(a), sweep(b));
             if sa.bounds().overlaps(&sb.bounds()) {
-                found.extend(sweep_contacts(sa, sb, &options).into_iter().map(timed));
+                found.extend(
+                    sweep_contacts_until(sa, sb, &options, &stop)?
+                        .into_iter()
+                        .map(timed),
+                );
             }
         }
         for &o in &self.selves {
+            stop.check()?;
             found.extend(
-                self_sweep_contacts(sweep(o), &options)
+                self_sweep_contacts_until(sweep(o), &options, &stop)?
                     .into_iter()
                     .map(timed),
             );

@@ -37,7 +37,10 @@ pub async fn query(
     };
     let job_state = state.clone();
     let (reports, response) = lane
-        .run(move || collide::run(job_state.registry(), &entry, &plan, &edits))
+        .run(move || {
+            let limits = job_state.limits();
+            collide::run(job_state.registry(), &entry, &plan, &edits, limits)
+        })
         .await??;
     for r in &reports {
         state.metrics().count_update(r.action.as_str());
@@ -151,6 +154,22 @@ mod tests {
             (out["total"].as_u64(), out["revision"].as_u64()),
             (Some(0), Some(1))
         );
+    }
+
+    #[tokio::test]
+    async fn a_query_past_the_compute_limit_is_refused_and_its_moves_not_stored() {
+        let server = TestServer::with(|c| c.limits.max_compute_ms = 0);
+        let (status, _, out) = server.send(post_json("/v1/scenes?id=s", DOC)).await;
+        assert_eq!(status, StatusCode::CREATED, "{out}");
+        let (status, problem) = collide(&server, json!({})).await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{problem}");
+        assert_eq!(problem["type"], "urn:frusta:problem:compute-limit");
+        let body = json!({"kind": "continuous", "pairs": [["probe", "panel"]],
+                          "moves": [{"object": "probe", "translation": [2, 0, 0]}]});
+        let (status, problem) = collide(&server, body).await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{problem}");
+        let (_, _, detail) = server.send(get("/v1/scenes/s")).await;
+        assert_eq!(detail["revision"], 0, "{detail}");
     }
 
     #[tokio::test]

@@ -312,8 +312,13 @@ impl Stream {
                 let result = (|| {
                     let (objects, collisions) = match &collisions {
                         Some(plan) => {
-                            let (objects, found) =
-                                collide::run(job_state.registry(), &entry, plan, &pending.objects)?;
+                            let (objects, found) = collide::run(
+                                job_state.registry(),
+                                &entry,
+                                plan,
+                                &pending.objects,
+                                job_state.limits(),
+                            )?;
                             (objects, Some(found))
                         }
                         None if pending.objects.is_empty() => (Vec::new(), None),

@@ -38,6 +38,8 @@ struct Walk<T> {
     front: Option<Vec<Pair>>,
     /// Stops that were overlapping leaf pairs.
     leaf_pairs: usize,
+    /// Whether `visit` broke off the walk: the front is then not a cut.
+    broken: bool,
 }
 
 impl<T> Walk<T> {
@@ -46,6 +48,7 @@ impl<T> Walk<T> {
             found: Vec::new(),
             front: keep_front.then(Vec::new),
             leaf_pairs: 0,
+            broken: false,
         }
     }
 
@@ -61,11 +64,11 @@ impl<T> Walk<T> {
         pair: Pair,
         la: Leaf,
         lb: Leaf,
-        visit: &impl Fn(Leaf, Leaf, &mut Vec<T>),
-    ) {
+        visit: &impl Fn(Leaf, Leaf, &mut Vec<T>) -> Flow,
+    ) -> Flow {
         self.stop(pair);
         self.leaf_pairs += 1;
-        visit(la, lb, &mut self.found);
+        visit(la, lb, &mut self.found)
     }
 
     /// The walk below overlapping BVTT node `p`.
@@ -74,14 +77,13 @@ impl<T> Walk<T> {
         volumes: &V,
         p: Pair,
         stack: &mut Vec<Pair>,
-        visit: &impl Fn(Leaf, Leaf, &mut Vec<T>),
-    ) {
+        visit: &impl Fn(Leaf, Leaf, &mut Vec<T>) -> Flow,
+    ) -> Flow {
         let (found, leaf_pairs) = (&mut self.found, &mut self.leaf_pairs);
-        let _ = descend(volumes, p, stack, self.front.as_mut(), &mut |la, lb| {
+        descend(volumes, p, stack, self.front.as_mut(), &mut |la, lb| {
             *leaf_pairs += 1;
-            visit(la, lb, found);
-            Flow::Continue(())
-        });
+            visit(la, lb, found)
+        })
     }
 
     fn join(mut self, other: Self) -> Self {
@@ -90,6 +92,7 @@ impl<T> Walk<T> {
             f.extend(g);
         }
         self.leaf_pairs += other.leaf_pairs;
+        self.broken |= other.broken;
         self
     }
 }
@@ -99,12 +102,15 @@ fn walk_below<V: PairVolumes, T>(
     volumes: &V,
     starts: &[Pair],
     keep_front: bool,
-    visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync),
+    visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) -> Flow + Sync),
 ) -> Walk<T> {
     let mut walk = Walk::new(keep_front);
     let mut stack = Vec::new();
     for &p in starts {
-        walk.descend(volumes, p, &mut stack, visit);
+        if walk.descend(volumes, p, &mut stack, visit).is_break() {
+            walk.broken = true;
+            break;
+        }
     }
     walk
 }
@@ -116,7 +122,7 @@ fn walk_from_root<V: PairVolumes, T: Send>(
     volumes: &V,
     root: Pair,
     keep_front: bool,
-    visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync),
+    visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) -> Flow + Sync),
 ) -> Walk<T> {
     let mut walk = Walk::new(keep_front);
     if volumes.tree_a().nodes.is_empty() || volumes.tree_b().nodes.is_empty() {
@@ -126,14 +132,21 @@ fn walk_from_root<V: PairVolumes, T: Send>(
     while !level.is_empty() && level.len() < SEEDS {
         let mut next = Vec::with_capacity(level.len() * 16);
         for &p in &level {
-            let _ = expand(volumes, p, |pair, step| {
-                match step {
-                    Step::Apart => walk.stop(pair),
-                    Step::Leaves(la, lb) => walk.stop_at_leaves(pair, la, lb, visit),
-                    Step::Inner => next.push(pair),
+            let flow = expand(volumes, p, |pair, step| match step {
+                Step::Apart => {
+                    walk.stop(pair);
+                    Flow::Continue(())
                 }
-                Flow::Continue(())
+                Step::Leaves(la, lb) => walk.stop_at_leaves(pair, la, lb, visit),
+                Step::Inner => {
+                    next.push(pair);
+                    Flow::Continue(())
+                }
             });
+            if flow.is_break() {
+                walk.broken = true;
+                return walk;
+            }
         }
         level = next;
     }
@@ -146,13 +159,14 @@ fn walk_from_root<V: PairVolumes, T: Send>(
 
 /// Calls `visit(leaf of a, leaf of b, found)` for every pair of leaves
 /// whose volumes overlap, on all threads, and returns what the calls
-/// pushed (in no particular order). For one tree with itself (`volumes`
+/// pushed (in no particular order); a call that breaks ends its thread's
+/// walk, and the others' at their next break. For one tree with itself (`volumes`
 /// over the same tree twice), pass `same`: each unordered pair of distinct
 /// leaves is then visited once, and each leaf with itself.
 pub fn par_leaf_pairs<V: PairVolumes, T: Send>(
     volumes: &V,
     same: bool,
-    visit: impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync,
+    visit: impl Fn(Leaf, Leaf, &mut Vec<T>) -> Flow + Sync,
 ) -> Vec<T> {
     let root = if same { Pair::SELF_ROOT } else { Pair::ROOT };
     walk_from_root(volumes, root, false, &visit).found
@@ -200,7 +214,7 @@ impl Front {
         &mut self,
         volumes: &V,
         same: bool,
-        visit: impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync,
+        visit: impl Fn(Leaf, Leaf, &mut Vec<T>) -> Flow + Sync,
     ) -> Vec<T> {
         let trees = (volumes.tree_a().topology, volumes.tree_b().topology);
         let valid = !self.pairs.is_empty()
@@ -217,7 +231,8 @@ impl Front {
             let root = if same { Pair::SELF_ROOT } else { Pair::ROOT };
             walk_from_root(volumes, root, true, &visit)
         };
-        let pairs = walk.front.unwrap_or_default();
+        // A walk cut short left no cut of the BVTT: the next starts over.
+        let pairs = walk.front.filter(|_| !walk.broken).unwrap_or_default();
         let share = walk.leaf_pairs as f64 / pairs.len().max(1) as f64;
         if !valid {
             self.fresh_share = share;
@@ -239,7 +254,7 @@ impl Front {
 fn restart<V: PairVolumes, T>(
     volumes: &V,
     stops: &[Pair],
-    visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) + Sync),
+    visit: &(impl Fn(Leaf, Leaf, &mut Vec<T>) -> Flow + Sync),
 ) -> Walk<T> {
     let (a, b) = (volumes.tree_a(), volumes.tree_b());
     let mut walk = Walk::new(true);
@@ -249,9 +264,13 @@ fn restart<V: PairVolumes, T>(
             walk.stop(p);
             continue;
         }
-        match (leaf(a, p.a), leaf(b, p.b)) {
+        let flow = match (leaf(a, p.a), leaf(b, p.b)) {
             (Some(la), Some(lb)) => walk.stop_at_leaves(p, la, lb, visit),
             _ => walk.descend(volumes, p, &mut stack, visit),
+        };
+        if flow.is_break() {
+            walk.broken = true;
+            break;
         }
     }
     walk

@@ -20,6 +20,7 @@ use super::{for_each_self_candidate, world_corners, Contact};
 use crate::bvh::traverse::pair::overlapping_leaves;
 use crate::bvh::wide::Bvh4;
 use crate::bvh::SceneBvh;
+use crate::deadline::{Deadline, CLOCK_PERIOD};
 use crate::geometry::{Aabb, RigidTransform, TriangleMesh};
 use crate::{Error, Result};
 
@@ -204,9 +205,37 @@ fn sort_by_time(contacts: &mut [SweptContact]) {
 /// Every pair of triangles of two different objects that touch during the
 /// step, with the earliest time each pair does, earliest first.
 pub fn sweep_contacts(a: &Sweep, b: &Sweep, options: &CcdOptions) -> Vec<SweptContact> {
+    sweep_contacts_until(a, b, options, &Deadline::none()).unwrap_or_default()
+}
+
+/// A clock read on the first call and every [`CLOCK_PERIOD`] after, for
+/// the sequential sweeps.
+struct Ticker<'d> {
+    stop: &'d Deadline,
+    calls: u64,
+}
+
+impl Ticker<'_> {
+    fn late(&mut self) -> bool {
+        self.calls += 1;
+        self.calls % CLOCK_PERIOD == 1 && self.stop.check().is_err()
+    }
+}
+
+/// [`sweep_contacts`] until `stop`.
+pub(crate) fn sweep_contacts_until(
+    a: &Sweep,
+    b: &Sweep,
+    options: &CcdOptions,
+    stop: &Deadline,
+) -> Result<Vec<SweptContact>> {
     let mut scratch = CcdScratch::default();
     let mut found = Vec::new();
+    let mut ticker = Ticker { stop, calls: 0 };
     overlapping_leaves(&a.tree, &b.tree, None, |la, lb| {
+        if ticker.late() {
+            return ControlFlow::Break(());
+        }
         for x in la.slots() {
             let ta = a.triangle(x);
             for y in lb.slots() {
@@ -226,8 +255,9 @@ pub fn sweep_contacts(a: &Sweep, b: &Sweep, options: &CcdOptions) -> Vec<SweptCo
         }
         ControlFlow::Continue(())
     });
+    stop.expired()?;
     sort_by_time(&mut found);
-    found
+    Ok(found)
 }
 
 /// Every pair of triangles of one object that touch during the step,
@@ -235,10 +265,24 @@ pub fn sweep_contacts(a: &Sweep, b: &Sweep, options: &CcdOptions) -> Vec<SweptCo
 /// two triangles share at the start (by position) are not tested against
 /// each other, so adjacent triangles count only where other parts meet.
 pub fn self_sweep_contacts(sweep: &Sweep, options: &CcdOptions) -> Vec<SweptContact> {
+    self_sweep_contacts_until(sweep, options, &Deadline::none()).unwrap_or_default()
+}
+
+/// [`self_sweep_contacts`] until `stop`.
+pub(crate) fn self_sweep_contacts_until(
+    sweep: &Sweep,
+    options: &CcdOptions,
+    stop: &Deadline,
+) -> Result<Vec<SweptContact>> {
+    let mut ticker = Ticker { stop, calls: 0 };
     let mut scratch = CcdScratch::default();
     let mut found = Vec::new();
     let shared = |p: &[DVec3; 2], q: &[DVec3; 2]| p[0] == q[0];
     let mut test = |x: usize, y: usize| {
+        // Candidates go on after the deadline, but are no longer tested.
+        if ticker.late() || stop.expired().is_err() {
+            return;
+        }
         let (ta, tb) = (sweep.triangle(x), sweep.triangle(y));
         if let Some(time) = triangles_time_of_impact(&ta, &tb, shared, options, &mut scratch) {
             let (p, q) = (sweep.prim_ids[x], sweep.prim_ids[y]);
@@ -252,6 +296,7 @@ pub fn self_sweep_contacts(sweep: &Sweep, options: &CcdOptions) -> Vec<SweptCont
         }
     };
     for_each_self_candidate(&sweep.tree, &mut test);
+    stop.expired()?;
     sort_by_time(&mut found);
-    found
+    Ok(found)
 }

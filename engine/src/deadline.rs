@@ -1,10 +1,11 @@
-//! A compute deadline shared by the workers of one simulation.
+//! A compute deadline shared by the workers of one query: a simulation
+//! or a collision query.
 //!
-//! Reading the clock costs tens of nanoseconds, a frustum some
-//! microseconds: workers read it every [`CLOCK_PERIOD`] frusta. The first to
-//! see it passed raises a flag that every other worker reads on each
-//! frustum (one relaxed load of a line nobody writes until then), so all
-//! stop within one frustum of each other.
+//! Reading the clock costs tens of nanoseconds, a frustum or a pair of
+//! leaves some hundreds: workers read it every [`CLOCK_PERIOD`] units of
+//! work. The first to see it passed raises a flag that every other worker
+//! reads on each unit (one relaxed load of a line nobody writes until
+//! then), so all stop within one unit of each other.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -12,7 +13,8 @@ use std::time::Instant;
 
 use crate::{Error, Result};
 
-/// Frusta traced between two readings of the clock by one worker.
+/// Units of work (frusta, pairs of leaves) between two readings of the
+/// clock by one worker.
 pub(crate) const CLOCK_PERIOD: u64 = 64;
 
 /// Stops a running simulation from another thread: it returns
