@@ -149,7 +149,7 @@ fn moving_pairs_from_a_front_and_with_obbs_match_brute_force_every_frame() {
 }
 
 #[test]
-fn a_front_survives_a_rebuild_and_an_obb_tree_of_another_mesh_is_refused() {
+fn a_front_survives_a_rebuild_and_stale_obb_trees_are_refused() {
     let options = BuildOptions::default();
     let mesh = folded_sheet(8, 3.3, 0.05);
     let mut bvh = MeshBvh::build(&mesh, &options);
@@ -163,4 +163,10 @@ fn a_front_survives_a_rebuild_and_an_obb_tree_of_another_mesh_is_refused() {
     assert_eq!(after, brute_self(&other));
     let stale = ObbTree::fit(&MeshBvh::build(&mesh, &options));
     assert!(mesh_self_contacts(&bvh, Some(&stale), None).is_err());
+    // Boxes fitted before the mesh moved are refused too, until refitted.
+    let mut obbs = ObbTree::fit(&bvh);
+    bvh.refit(&folded_sheet(8, 3.2, 0.05)).unwrap();
+    assert!(mesh_self_contacts(&bvh, Some(&obbs), None).is_err());
+    obbs.refit(&bvh);
+    assert!(mesh_self_contacts(&bvh, Some(&obbs), None).is_ok());
 }

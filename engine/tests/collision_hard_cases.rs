@@ -164,3 +164,68 @@ fn a_cube_moved_by_one_ulp_meets_its_copy_where_the_geometry_says_at_every_scale
     assert_eq!(face_contacts(1e-3), contacts);
     assert_eq!(face_contacts(1e4), contacts);
 }
+
+/// Objects far from the origin and turned: `b`'s motion into `a`'s frame
+/// is composed in f32, whose rounding there (about a millimetre at 1e4 m)
+/// must not make the broad phase miss triangles that meet, barely, in the
+/// world (decided in f64 on each object's own world transform).
+#[test]
+fn barely_touching_triangles_far_from_the_origin_are_found() {
+    use glam::Quat;
+    let mut missed = 0;
+    let mut seen = 0;
+    for k in 0..200u32 {
+        let f = k as f32;
+        let far = Vec3::new(1e4 + 37.0 * f, -2e4 + 11.0 * f, 5e3);
+        let turn =
+            |s: f32| Quat::from_axis_angle(Vec3::new(0.3, 1.0, -0.4 + s).normalize(), 0.5 + s);
+        let at_a = RigidTransform::new(turn(0.01 * f), far).unwrap();
+        let at_b =
+            RigidTransform::new(turn(0.7 + 0.013 * f), far + Vec3::new(0.3, -0.2, 0.1)).unwrap();
+        // A triangle of a, in its frame, and one of b (placed through the
+        // world in f64) whose tip pokes through it from above by 0.1 mm,
+        // less than the f32 rounding of the composed motion.
+        let tri_a = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        let into_b = |p: Vec3| {
+            let (qa, qb) = (at_a.rotation.as_dquat(), at_b.rotation.as_dquat());
+            let world = qa * p.as_dvec3() + at_a.translation.as_dvec3();
+            (qb.inverse() * (world - at_b.translation.as_dvec3())).as_vec3()
+        };
+        let tri_b = [
+            into_b(Vec3::new(0.3, 0.3, -1e-4)),
+            into_b(Vec3::new(0.3, 0.6, 0.5)),
+            into_b(Vec3::new(0.6, 0.3, 0.5)),
+        ];
+        let mesh = |t: [Vec3; 3]| TriangleMesh::new(t.to_vec(), vec![[0, 1, 2]]).unwrap();
+        let options = BuildOptions::default();
+        let (a, b) = (
+            MeshBvh::build(&mesh(tri_a), &options),
+            MeshBvh::build(&mesh(tri_b), &options),
+        );
+        let world = |t: [Vec3; 3], at: &RigidTransform| {
+            let q = at.rotation.as_dquat();
+            t.map(|p| q * p.as_dvec3() + at.translation.as_dvec3())
+        };
+        if !triangles_intersect(&world(tri_a, &at_a), &world(tri_b, &at_b)) {
+            continue;
+        }
+        seen += 1;
+        let placed = |mesh, to_world| Placed {
+            mesh,
+            to_world,
+            obbs: None,
+        };
+        if mesh_contacts(placed(&a, &at_a), placed(&b, &at_b), None)
+            .unwrap()
+            .is_empty()
+        {
+            missed += 1;
+        }
+    }
+    assert!(seen > 100, "{seen}");
+    assert_eq!(missed, 0, "missed {missed} of {seen}");
+}

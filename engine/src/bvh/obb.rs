@@ -204,7 +204,8 @@ pub struct ObbTree {
     boxes: Vec<[Obb; 4]>,
     /// Per node, the moments of everything below it (refit scratch).
     moments: Vec<Moments>,
-    topology: u64,
+    /// The tree's topology and pose the boxes were fitted to.
+    fitted: (u64, u64),
 }
 
 impl ObbTree {
@@ -220,7 +221,7 @@ impl ObbTree {
     pub fn refit(&mut self, mesh: &MeshBvh) {
         let nodes = &mesh.wide().nodes;
         let triangles = mesh.leaf_triangles();
-        self.topology = mesh.wide().topology;
+        self.fitted = (mesh.wide().topology, mesh.wide().pose);
         self.boxes.resize(nodes.len(), [Obb::default(); 4]);
         self.moments.resize(nodes.len(), Moments::default());
         let leaves = |(node, (boxes, moments)): (&Node4, (&mut [Obb; 4], &mut Moments))| {
@@ -284,20 +285,27 @@ pub struct ObbVolumes<'t> {
     a: (&'t Bvh4, &'t ObbTree),
     b: (&'t Bvh4, &'t ObbTree),
     b_to_a: Option<RigidTransform>,
+    /// Grows `b`'s boxes: the rounding of `b_to_a`.
+    pad: f32,
 }
 
 impl<'t> ObbVolumes<'t> {
-    /// Fails when an OBB tree was fitted to another tree than its mesh's.
+    /// `b`'s boxes moved by `b_to_a` and grown by `pad` (its rounding, see
+    /// [`RigidTransform::relative`]). Fails when an OBB tree was fitted to
+    /// another tree than its mesh's, or to an earlier pose of it.
     pub fn new(
         a: (&'t MeshBvh, &'t ObbTree),
         b: (&'t MeshBvh, &'t ObbTree),
         b_to_a: Option<RigidTransform>,
+        pad: f32,
     ) -> Result<Self> {
         for (mesh, obbs) in [a, b] {
-            if mesh.wide().topology != obbs.topology {
+            if (mesh.wide().topology, mesh.wide().pose) != obbs.fitted {
                 return Err(Error::InvalidOption {
                     field: "obb".into(),
-                    reason: "was fitted to another tree than this mesh's; refit it first".into(),
+                    reason: "was fitted to another tree than this mesh's, or before it moved; \
+                             refit it first"
+                        .into(),
                 });
             }
         }
@@ -305,6 +313,7 @@ impl<'t> ObbVolumes<'t> {
             a: (a.0.wide(), a.1),
             b: (b.0.wide(), b.1),
             b_to_a,
+            pad,
         })
     }
 }
@@ -329,10 +338,12 @@ impl PairVolumes for ObbVolumes<'_> {
     #[inline]
     fn volume_b(&self, s: Slot) -> Obb {
         let b = self.b.1.slot_obb(s);
-        match &self.b_to_a {
+        let mut moved = match &self.b_to_a {
             Some(t) => b.transformed(t),
             None => *b,
-        }
+        };
+        moved.half += Vec3A::splat(self.pad);
+        moved
     }
 
     #[inline]

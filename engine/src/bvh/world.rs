@@ -219,12 +219,19 @@ impl SceneBvh {
                 .ok_or_else(|| Error::UnknownObject(format!("#{o} (the scene has {count})")))
         };
         let (ia, ib) = (get(a)?, get(b)?);
-        let b_to_a = (!ia.identity || !ib.identity).then(|| ib.to_world.then(&ia.to_object));
+        let (b_to_a, slack) = if ia.identity && ib.identity {
+            (None, 0.0)
+        } else {
+            let bounds = ib.bvh.bounds();
+            let reach = bounds.min.abs().max(bounds.max.abs()).max_element();
+            let (motion, slack) = RigidTransform::relative(&ia.to_world, &ib.to_world, reach);
+            (Some(motion), slack)
+        };
         leaves_within(
             ia.bvh.wide(),
             ib.bvh.wide(),
             b_to_a.as_ref(),
-            distance,
+            distance + slack,
             visit,
         );
         Ok(())

@@ -77,8 +77,21 @@ pub(crate) fn contact_slots(
     front: Option<&mut Front>,
     stop: &Deadline,
 ) -> Result<Vec<(u32, u32)>> {
-    let b_to_a = (!a.to_world.is_identity() || !b.to_world.is_identity())
-        .then(|| b.to_world.then(&a.to_world.inverse()));
+    let moved = !a.to_world.is_identity() || !b.to_world.is_identity();
+    let reach = b
+        .mesh
+        .bounds()
+        .min
+        .abs()
+        .max(b.mesh.bounds().max.abs())
+        .max_element();
+    let (b_to_a, slack) = match moved {
+        true => {
+            let (motion, slack) = RigidTransform::relative(a.to_world, b.to_world, reach);
+            (Some(motion), slack)
+        }
+        false => (None, 0.0),
+    };
     let (to_a, to_b) = (world_corners(a.to_world), world_corners(b.to_world));
     let (ta, tb) = (a.mesh.leaf_triangles(), b.mesh.leaf_triangles());
     let visit = |la: Leaf, lb: Leaf, out: &mut Vec<(u32, u32)>| {
@@ -102,7 +115,7 @@ pub(crate) fn contact_slots(
     };
     Ok(match (a.obbs, b.obbs) {
         (Some(oa), Some(ob)) => {
-            let volumes = ObbVolumes::new((a.mesh, oa), (b.mesh, ob), b_to_a)?;
+            let volumes = ObbVolumes::new((a.mesh, oa), (b.mesh, ob), b_to_a, slack)?;
             walk(&volumes, false, front, stop, visit)?
         }
         _ => {
@@ -110,7 +123,7 @@ pub(crate) fn contact_slots(
                 a: a.mesh.wide(),
                 b: b.mesh.wide(),
                 b_to_a,
-                margin: 0.0,
+                margin: slack,
             };
             walk(&volumes, false, front, stop, visit)?
         }
@@ -165,7 +178,7 @@ pub(crate) fn self_contact_slots(
     };
     Ok(match obbs {
         Some(o) => {
-            let volumes = ObbVolumes::new((mesh, o), (mesh, o), None)?;
+            let volumes = ObbVolumes::new((mesh, o), (mesh, o), None, 0.0)?;
             walk(&volumes, true, front, stop, visit)?
         }
         None => {

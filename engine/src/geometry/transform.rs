@@ -85,6 +85,30 @@ impl RigidTransform {
         }
     }
 
+    /// The motion from the frame `b_to_world` places into the one
+    /// `a_to_world` places, composed in f64 so that only its final rounding
+    /// to f32 remains, and a bound on the error that rounding makes on a
+    /// point within `reach` of `b`'s origin. Composed in f32 instead, the
+    /// two world translations' rounding (a millimetre at 1e4 m) would move
+    /// `b`'s boxes off the triangles they bound.
+    pub fn relative(a_to_world: &Self, b_to_world: &Self, reach: f32) -> (Self, f32) {
+        let (qa, qb) = (
+            a_to_world.rotation.as_dquat(),
+            b_to_world.rotation.as_dquat(),
+        );
+        let rotation = (qa.conjugate() * qb).normalize();
+        let shift = b_to_world.translation.as_dvec3() - a_to_world.translation.as_dvec3();
+        let translation = (qa.conjugate() * shift).as_vec3();
+        let motion = Self {
+            rotation: rotation.as_quat(),
+            translation,
+        };
+        // A unit quaternion rounded to f32 turns a point by about two ulps
+        // of its distance; the translation rounds by half an ulp.
+        let slack = 8.0 * f32::EPSILON * (reach + translation.abs().max_element());
+        (motion, slack)
+    }
+
     /// This motion followed by `after`.
     pub fn then(&self, after: &RigidTransform) -> Self {
         Self {

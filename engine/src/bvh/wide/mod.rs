@@ -97,6 +97,15 @@ pub struct Bvh4 {
     /// BVTT front (see [`super::traverse::front`]) tell that the tree it
     /// was made on has been rebuilt.
     pub(crate) topology: u64,
+    /// Distinct for every build and every refit: what lets boxes fitted on
+    /// the tree's topology (an OBB tree) tell that it has moved since.
+    pub(crate) pose: u64,
+}
+
+/// A process-wide serial number: for topologies and poses.
+pub(crate) fn next_id() -> u64 {
+    static IDS: AtomicU64 = AtomicU64::new(1);
+    IDS.fetch_add(1, Ordering::Relaxed)
 }
 
 impl Bvh4 {
@@ -116,11 +125,11 @@ impl Bvh4 {
                 collapse(&bin.nodes, 0, &mut nodes);
             }
         }
-        static BUILDS: AtomicU64 = AtomicU64::new(1);
         let mut wide = Self {
             nodes,
             build_ratios: Vec::new(),
-            topology: BUILDS.fetch_add(1, Ordering::Relaxed),
+            topology: next_id(),
+            pose: next_id(),
         };
         wide.build_ratios = vec![[1.0; 5]; wide.nodes.len()];
         wide

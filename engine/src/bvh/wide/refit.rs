@@ -32,6 +32,7 @@ impl Bvh4 {
     /// inner slots as the union of their child's slots, in one reverse sweep
     /// (children come after their parent).
     pub(crate) fn refit(&mut self, leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync) {
+        self.pose = super::next_id();
         let leaves = |n: &mut Node4| {
             for s in 0..4 {
                 if n.is_leaf_slot(s) {
