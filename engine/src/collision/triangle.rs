@@ -80,10 +80,14 @@ fn inside_2d(t: &[Coord<f64>; 3], turn: i8, x: Coord<f64>) -> bool {
 }
 
 /// Whether the closed segment `p q` meets the closed triangle `t`, which
-/// has area.
-fn segment_meets_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3], axis: usize) -> bool {
+/// has area; `dp` and `dq` are the sides of `p` and `q` against its plane.
+fn segment_meets_triangle(
+    (p, dp): (DVec3, i8),
+    (q, dq): (DVec3, i8),
+    t: &[DVec3; 3],
+    axis: usize,
+) -> bool {
     let [a, b, c] = *t;
-    let (dp, dq) = (orient(a, b, c, p), orient(a, b, c, q));
     if dp * dq > 0 {
         return false;
     }
@@ -104,25 +108,26 @@ fn segment_meets_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3], axis: usize) -> bo
 /// Whether closed triangles `a` and `b` intersect, decided exactly for the
 /// given coordinates.
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
-    // Most candidate pairs lie strictly on one side of the other's plane:
-    // three orientations settle them, before any edge is tested.
-    let one_side = |t: &[DVec3; 3], u: &[DVec3; 3]| {
-        let s = u.map(|p| orient(t[0], t[1], t[2], p));
-        s.iter().all(|&x| x > 0) || s.iter().all(|&x| x < 0)
-    };
-    if one_side(a, b) || one_side(b, a) {
+    // Each triangle's corners against the other's plane, once: most
+    // candidate pairs lie strictly on one side and are settled here, and
+    // the edge tests below reuse the signs.
+    let sides = |t: &[DVec3; 3], u: &[DVec3; 3]| u.map(|p| orient(t[0], t[1], t[2], p));
+    let (of_b, of_a) = (sides(a, b), sides(b, a));
+    let one_side = |s: &[i8; 3]| s.iter().all(|&x| x > 0) || s.iter().all(|&x| x < 0);
+    if one_side(&of_b) || one_side(&of_a) {
         return false;
     }
-    let edges = |t: &[DVec3; 3]| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])];
-    let hits = |edges: [(DVec3, DVec3); 3], t: &[DVec3; 3], axis: usize| {
-        edges
-            .iter()
-            .any(|&(p, q)| segment_meets_triangle(p, q, t, axis))
+    // The edges of `u` (corners with their sides of `t`'s plane) against `t`.
+    let hits = |u: &[DVec3; 3], s: &[i8; 3], t: &[DVec3; 3], axis: usize| {
+        (0..3).any(|i| {
+            let j = (i + 1) % 3;
+            segment_meets_triangle((u[i], s[i]), (u[j], s[j]), t, axis)
+        })
     };
     match (projection_axis(a), projection_axis(b)) {
-        (Some(axis_a), Some(axis_b)) => hits(edges(a), b, axis_b) || hits(edges(b), a, axis_a),
-        (None, Some(axis_b)) => hits(edges(a), b, axis_b),
-        (Some(axis_a), None) => hits(edges(b), a, axis_a),
+        (Some(axis_a), Some(axis_b)) => hits(a, &of_a, b, axis_b) || hits(b, &of_b, a, axis_a),
+        (None, Some(axis_b)) => hits(a, &of_a, b, axis_b),
+        (Some(axis_a), None) => hits(b, &of_b, a, axis_a),
         (None, None) => false,
     }
 }
