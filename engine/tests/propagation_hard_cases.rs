@@ -4,7 +4,9 @@
 //! extreme scales, invalid input, and moving listeners and objects.
 
 use frusta_engine::acoustics::path::{Event, ValidPath};
-use frusta_engine::acoustics::propagation::{arrival, simulate, SimulationOptions};
+use frusta_engine::acoustics::propagation::{
+    arrival, simulate, SimulationOptions, SurfaceShare::Reflected,
+};
 use frusta_engine::acoustics::reference::image_sources;
 use frusta_engine::acoustics::signal::AirConditions;
 use frusta_engine::acoustics::{AcousticScene, CellAssignment, TraceOptions};
@@ -175,8 +177,8 @@ fn check_against_reference(
         );
         for a in [None, Some(&air)] {
             let (at, ae) = (
-                arrival(scene, t, l, speed, a),
-                arrival(scene, e, l, speed, a),
+                arrival(scene, t, l, speed, a, Reflected),
+                arrival(scene, e, l, speed, a, Reflected),
             );
             assert!(rel(at.delay_s, ae.delay_s) <= 1e-6, "{what}");
             for (gt, ge) in at.pressure_gain.iter().zip(&ae.pressure_gain) {
@@ -233,7 +235,7 @@ fn shoebox_simulate_matches_reference_delays_and_gains() {
     assert_eq!(r.paths.len(), exact.len());
     let air = AirConditions::default();
     for e in &exact {
-        let a = arrival(&scene, e, l, r.speed_of_sound_m_s, Some(&air));
+        let a = arrival(&scene, e, l, r.speed_of_sound_m_s, Some(&air), Reflected);
         let p = r
             .paths
             .iter()
@@ -328,8 +330,8 @@ fn reciprocity_same_lengths_and_gains() {
             b.length
         );
         let (gf, gb) = (
-            arrival(&scene, f, L, speed, None).pressure_gain,
-            arrival(&scene, b, S, speed, None).pressure_gain,
+            arrival(&scene, f, L, speed, None, Reflected).pressure_gain,
+            arrival(&scene, b, S, speed, None, Reflected).pressure_gain,
         );
         for (x, y) in gf.iter().zip(&gb) {
             assert!(rel(f64::from(*x), f64::from(*y)) <= 1e-6, "{x} vs {y}");
@@ -732,7 +734,7 @@ fn moving_listener_line(scene: &AcousticScene, start: DVec3, dir: DVec3, step: f
         let energy: f64 = paths
             .iter()
             .map(|p| {
-                let g = arrival(scene, p, l, 343.0, None).pressure_gain[0];
+                let g = arrival(scene, p, l, 343.0, None, Reflected).pressure_gain[0];
                 f64::from(g).powi(2)
             })
             .sum();

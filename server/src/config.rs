@@ -61,6 +61,9 @@ pub struct Limits {
     /// Largest sub-frustum sampling (N) a request may ask for.
     #[arg(long, env = "FRUSTA_MAX_SAMPLING", default_value_t = 32)]
     pub max_sampling: u32,
+    /// Most rays a request's late reverberation may trace per source.
+    #[arg(long, env = "FRUSTA_MAX_TAIL_RAYS", default_value_t = 65_536)]
+    pub max_tail_rays: u32,
     /// Most source-listener pairs in one request.
     #[arg(long, env = "FRUSTA_MAX_PAIRS", default_value_t = 64)]
     pub max_pairs: usize,

@@ -72,23 +72,37 @@ impl IrRequest {
                 self.options.sampling, limits.max_sampling
             )));
         }
+        if let Some(tail) = self.options.tail.options() {
+            if tail.rays > limits.max_tail_rays {
+                return Err(ApiError::LimitExceeded(format!(
+                    "tail.rays {} exceeds this server's limit of {}",
+                    tail.rays, limits.max_tail_rays
+                )));
+            }
+        }
         let channels: u64 = match self.options.channels {
             Channels::Mono => 1,
             Channels::Binaural => 2,
         };
         // The IR's length is known only after tracing; bound its memory by
         // the longest one the engine renders.
-        let worst_mib = pairs as f64
+        let tail_bytes = self
+            .options
+            .tail
+            .options()
+            .map_or(0, |t| t.worst_memory_bytes(self.listeners.len()));
+        let worst_mib = (pairs as f64
             * channels as f64
             * f64::from(self.options.sample_rate)
             * MAX_DURATION_S
             * 4.0
+            + tail_bytes as f64)
             / (1024.0 * 1024.0);
         if worst_mib > limits.max_ir_mib as f64 {
             return Err(ApiError::LimitExceeded(format!(
                 "{pairs} pairs x {channels} channels at {} Hz could need {worst_mib:.0} MiB of samples \
-                 (impulse responses up to {MAX_DURATION_S} s); this server allows {} MiB: ask for fewer \
-                 pairs, a lower sample_rate or mono",
+                 (impulse responses up to {MAX_DURATION_S} s, and the tail's histograms); this server \
+                 allows {} MiB: ask for fewer pairs, a lower sample_rate, mono or a shorter tail",
                 self.options.sample_rate, limits.max_ir_mib
             )));
         }

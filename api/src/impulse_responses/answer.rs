@@ -101,8 +101,26 @@ pub struct StatsOut {
     /// Whether the source's frusta came from a stream's cache.
     pub beams_reused: bool,
     pub trace_ms: f64,
+    /// The late reverberation's rays and time; null without a tail.
+    pub tail: Option<TailStatsOut>,
     pub total_ms: f64,
     pub threads: usize,
+}
+
+/// What tracing the late reverberation of this source took (shared by its
+/// listeners).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct TailStatsOut {
+    pub rays: u64,
+    /// Surface hits over all rays.
+    pub reflections: u64,
+    /// Shadow rays sent from diffuse reflections to the listeners.
+    pub shadow_rays: u64,
+    /// Radius of the sphere around each listener that counted rays, m.
+    pub receiver_radius_m: f64,
+    /// The room volume the sphere and the tail's echo density were sized by, m³.
+    pub volume_m3: f64,
+    pub trace_ms: f64,
 }
 
 impl From<&Response> for PairResponse {
@@ -140,6 +158,14 @@ impl From<&Response> for PairResponse {
                 paths: stats.paths,
                 beams_reused: stats.beams_reused,
                 trace_ms: stats.trace_ms,
+                tail: stats.tail.as_ref().map(|t| TailStatsOut {
+                    rays: t.rays,
+                    reflections: t.reflections,
+                    shadow_rays: t.shadow_rays,
+                    receiver_radius_m: t.receiver_radius_m,
+                    volume_m3: t.volume_m3,
+                    trace_ms: t.trace_ms,
+                }),
                 total_ms: stats.total_ms,
                 threads: stats.threads,
             },

@@ -6,6 +6,6 @@ mod answer;
 mod request;
 
 pub use answer::{
-    BandParametersOut, ImpulseResponses, PairResponse, PathOut, StatsOut, SurfaceOut,
+    BandParametersOut, ImpulseResponses, PairResponse, PathOut, StatsOut, SurfaceOut, TailStatsOut,
 };
 pub use request::{ImpulseResponseRequest, Point};

@@ -8,11 +8,14 @@ use std::borrow::Cow;
 use frusta_engine::acoustics::propagation::MAX_ORDER;
 use frusta_engine::acoustics::signal::impulse_response::MAX_SAMPLE_RATE;
 use frusta_engine::acoustics::signal::AirConditions;
-use frusta_engine::acoustics::SimulationOptions;
+use frusta_engine::acoustics::tail::{MAX_LENGTH_S, MAX_RAYS};
+use frusta_engine::acoustics::{SimulationOptions, TailOptions};
 use frusta_engine::scene::OCTAVE_BANDS_HZ;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use utoipa::openapi::schema::{AdditionalProperties, ArrayBuilder, ObjectBuilder, Type};
+use utoipa::openapi::schema::{
+    AdditionalProperties, ArrayBuilder, ObjectBuilder, OneOfBuilder, Type,
+};
 use utoipa::openapi::{Ref, RefOr, Schema};
 use utoipa::{PartialSchema, ToSchema};
 
@@ -180,8 +183,72 @@ impl ImpulseResponseRequest {
             ),
             ("channels", choice("Mono, or binaural (left and right ears)", &["mono", "binaural"])),
             ("listener_frame", listener_frame.into()),
+            ("tail", tail_schema()),
         ]
     }
+}
+
+/// `"none"`, `null`, or the stochastic tail's options.
+fn tail_schema() -> RefOr<Schema> {
+    let defaults = TailOptions::default();
+    let options = ObjectBuilder::new()
+        .schema_type(Type::Object)
+        .description(Some(
+            "Late reverberation by stochastic ray tracing after the exact paths; omitted fields keep their defaults",
+        ))
+        .property(
+            "rays",
+            ObjectBuilder::new()
+                .schema_type(Type::Integer)
+                .description(Some("Rays traced from each source (the server may cap it lower)"))
+                .default(Some(defaults.rays.into()))
+                .minimum(Some(1))
+                .maximum(Some(MAX_RAYS)),
+        )
+        .property(
+            "max_length_s",
+            ObjectBuilder::new()
+                .schema_type(Type::Number)
+                .description(Some(
+                    "The tail ends here, s, or where every ray is 60 dB down",
+                ))
+                .default(Some(defaults.max_length_s.into()))
+                .exclusive_minimum(Some(0.0))
+                .maximum(Some(MAX_LENGTH_S)),
+        )
+        .property(
+            "seed",
+            ObjectBuilder::new()
+                .schema_type(Type::Integer)
+                .description(Some("Seed of the rays and of the tail's fine structure"))
+                .default(Some(defaults.seed.into()))
+                .minimum(Some(0)),
+        )
+        .property(
+            "receiver_radius_m",
+            ObjectBuilder::new()
+                .schema_type(utoipa::openapi::schema::SchemaType::from_iter([
+                    Type::Number,
+                    Type::Null,
+                ]))
+                .description(Some(
+                    "Radius of the sphere around each listener that counts rays, m; null sizes it from the room",
+                ))
+                .exclusive_minimum(Some(0.0)),
+        )
+        .additional_properties(Some(AdditionalProperties::FreeForm(false)));
+    let none = ObjectBuilder::new()
+        .schema_type(Type::String)
+        .enum_values(Some(["none"]));
+    let null = ObjectBuilder::new().schema_type(Type::Null);
+    OneOfBuilder::new()
+        .description(Some(
+            "The late reverberation: \"none\" (or null) for the exact paths alone, or the options of the stochastic tail (default: on, all defaults)",
+        ))
+        .item(none)
+        .item(null)
+        .item(options)
+        .into()
 }
 
 impl PartialSchema for ImpulseResponseRequest {

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use frusta_engine::acoustics::brute_force::ReferencePath;
 use frusta_engine::acoustics::path::{Event, ValidPath};
-use frusta_engine::acoustics::propagation::arrival;
+use frusta_engine::acoustics::propagation::{arrival, SurfaceShare};
 use frusta_engine::acoustics::signal::AirConditions;
 use frusta_engine::acoustics::AcousticScene;
 use frusta_engine::scene::{MaterialId, BAND_COUNT};
@@ -112,7 +112,7 @@ pub fn against_independent(
         matched += 1;
         let r = &reference[i];
         dt = dt.max((p.length - r.length).abs() / c);
-        let gains = arrival(scene, p, listener, c, None).pressure_gain;
+        let gains = arrival(scene, p, listener, c, None, SurfaceShare::Reflected).pressure_gain;
         for b in 0..BAND_COUNT {
             let (t, e) = (f64::from(gains[b]), r.pressure_gain[b]);
             de[b] = de[b].max((20.0 * (t / e).log10()).abs());
@@ -150,7 +150,8 @@ pub fn against_exhaustive(
     reference: &[ValidPath],
 ) -> Comparison {
     let c = speed();
-    let energy = |p: &ValidPath| arrival(scene, p, listener, c, None).pressure_gain;
+    let energy =
+        |p: &ValidPath| arrival(scene, p, listener, c, None, SurfaceShare::Reflected).pressure_gain;
     let exact: HashMap<Vec<Event>, &ValidPath> = reference.iter().map(|p| (events(p), p)).collect();
     let mut e = Energies {
         traced: [0.0; BAND_COUNT],

@@ -31,6 +31,12 @@ fn text(response: &PairResponse) {
         "{} paths, {} frusta, traced in {:.2} ms ({:.2} ms in all, {} threads)",
         s.paths, s.frusta, s.trace_ms, s.total_ms, s.threads
     );
+    if let Some(t) = &s.tail {
+        println!(
+            "late reverberation: {} rays, {} reflections, {} shadow rays, sphere {:.2} m, room {:.0} m³, traced in {:.2} ms",
+            t.rays, t.reflections, t.shadow_rays, t.receiver_radius_m, t.volume_m3, t.trace_ms
+        );
+    }
     println!("order  distance m   delay ms  gain at 1 kHz (dB)  surfaces");
     let khz = response.bands_hz.iter().position(|&b| b == 1000.0);
     for p in &response.paths {

@@ -3,7 +3,7 @@
 
 use clap::Args;
 use frusta_engine::acoustics::signal::Channels;
-use frusta_engine::acoustics::{CellAssignment, SimulationOptions};
+use frusta_engine::acoustics::{CellAssignment, SimulationOptions, Tail, TailOptions};
 use glam::Vec3;
 
 use crate::vec3;
@@ -41,6 +41,18 @@ pub struct SimulationArgs {
     /// Two channels from a spherical-head model instead of one.
     #[arg(long)]
     binaural: bool,
+    /// Only the exact paths: no late reverberation.
+    #[arg(long)]
+    no_tail: bool,
+    /// Rays of the late reverberation per source.
+    #[arg(long, default_value_t = TailOptions::default().rays)]
+    tail_rays: u32,
+    /// Longest late reverberation, s.
+    #[arg(long, default_value_t = TailOptions::default().max_length_s)]
+    tail_length: f64,
+    /// Seed of the late reverberation.
+    #[arg(long, default_value_t = 0)]
+    tail_seed: u64,
 }
 
 impl SimulationArgs {
@@ -61,6 +73,16 @@ impl SimulationArgs {
                 Channels::Binaural
             } else {
                 Channels::Mono
+            },
+            tail: if self.no_tail {
+                Tail::None
+            } else {
+                Tail::Stochastic(TailOptions {
+                    rays: self.tail_rays,
+                    max_length_s: self.tail_length,
+                    seed: self.tail_seed,
+                    receiver_radius_m: None,
+                })
             },
             ..defaults
         }

@@ -15,6 +15,8 @@
 //! - [`scene`]: [`AcousticScene`], what propagation reads of a scene;
 //! - [`propagation`]: paths with per-band gains, impulse responses and room
 //!   parameters for sources and listeners;
+//! - [`tail`]: late reverberation by stochastic ray tracing (diffuse rain
+//!   and receiver spheres), counting nothing the exact paths hold;
 //! - [`signal`]: arrivals to impulse responses, ISO 3382-1 parameters, WAV
 //!   files and auralization.
 
@@ -33,15 +35,17 @@ mod sample_rays;
 pub mod scene;
 pub mod signal;
 pub mod surfaces;
+pub mod tail;
 pub mod tracer;
 
 pub use crate::deadline::Cancel;
 pub use beams::Beams;
 pub use cache::BeamCache;
 pub use propagation::{
-    simulate, simulate_cached, simulate_until, Response, SimulationOptions, SoundPath,
+    simulate, simulate_cached, simulate_until, Response, SimulationOptions, SoundPath, SurfaceShare,
 };
 pub use scene::{AcousticScene, FoundPaths};
+pub use tail::{Tail, TailOptions};
 pub use tracer::{CellAssignment, TraceOptions, TraceStats};
 
 /// The 10 x 6 x 3 m box room the unit tests trace in, each wall split

@@ -9,8 +9,10 @@ use serde::{Deserialize, Serialize};
 
 use super::path::ValidPath;
 use super::signal::{
-    self, AirConditions, Arrival, ImpulseResponse, ImpulseResponseOptions, RoomParameters,
+    self, AirConditions, Arrival, EnergyHistogram, ImpulseResponse, ImpulseResponseOptions,
+    RoomParameters,
 };
+use super::tail::{trace_tail, Tail, TailInput, TailOptions, TailStats};
 use super::{AcousticScene, BeamCache, CellAssignment, TraceOptions};
 use crate::deadline::{Cancel, Deadline};
 use crate::scene::{Bands, BAND_COUNT, OCTAVE_BANDS_HZ};
@@ -46,6 +48,9 @@ pub struct SimulationOptions {
     pub sample_rate: u32,
     pub channels: signal::Channels,
     pub listener_frame: signal::ListenerFrame,
+    /// The late reverberation after the exact paths up to `max_order`:
+    /// `"none"` for the exact paths alone.
+    pub tail: Tail,
 }
 
 impl Default for SimulationOptions {
@@ -63,6 +68,7 @@ impl Default for SimulationOptions {
             sample_rate: 48_000,
             channels: signal::Channels::Mono,
             listener_frame: signal::ListenerFrame::default(),
+            tail: Tail::default(),
         }
     }
 }
@@ -96,6 +102,14 @@ impl SimulationOptions {
         Ok(out)
     }
 
+    /// The tail's options, checked; `None` for no tail.
+    pub fn tail_options(&self) -> Result<Option<TailOptions>> {
+        self.tail
+            .options()
+            .map(|o| o.clone().validated())
+            .transpose()
+    }
+
     /// Checks every option; the error names the one at fault.
     pub fn trace_options(&self) -> Result<TraceOptions> {
         if self.max_order > MAX_ORDER {
@@ -125,6 +139,7 @@ impl SimulationOptions {
         if let Some(air) = self.air {
             air.validated()?;
         }
+        self.tail_options()?;
         let mut active_bands = [false; BAND_COUNT];
         for b in self.band_indices()? {
             active_bands[b] = true;
@@ -188,6 +203,9 @@ pub struct SimulationStats {
     /// Time to find the paths: tracing (unless reused), proposing and
     /// validating.
     pub trace_ms: f64,
+    /// The late reverberation's rays and time (shared by the source's
+    /// listeners), when there is a tail.
+    pub tail: Option<TailStats>,
     pub total_ms: f64,
     pub threads: usize,
 }
@@ -204,6 +222,11 @@ pub struct Response {
     pub stats: SimulationStats,
     #[serde(skip)]
     pub impulse_response: ImpulseResponse,
+    /// The tail's energy per band and 1 ms bin, when there is a tail: the
+    /// late part of the response's echogram (the arrivals of `paths` are
+    /// the early part).
+    #[serde(skip)]
+    pub late_energy: Option<EnergyHistogram>,
 }
 
 /// Simulates every source-listener pair: one frustum trace per source
@@ -266,6 +289,7 @@ fn simulate_with(
 ) -> Result<Vec<Response>> {
     let start = Instant::now();
     let trace_options = options.trace_options()?;
+    let tail_options = options.tail_options()?;
     let bands = options.band_indices()?;
     let ir_options = ImpulseResponseOptions {
         sample_rate: options.sample_rate,
@@ -301,14 +325,42 @@ fn simulate_with(
             ),
         };
         let trace_ms = trace_start.elapsed().as_secs_f64() * 1e3;
+        let tail = match &tail_options {
+            Some(tail) => {
+                let input = TailInput {
+                    options: tail,
+                    exact_order: trace_options.max_order,
+                    active_bands: trace_options.active_bands,
+                    speed_of_sound: speed,
+                    air: options.air.as_ref(),
+                };
+                Some(trace_tail(
+                    scene,
+                    source,
+                    &listener_points,
+                    &input,
+                    &deadline,
+                )?)
+            }
+            None => None,
+        };
+        let surface_share = if tail.is_some() {
+            SurfaceShare::Specular
+        } else {
+            SurfaceShare::Reflected
+        };
         for (l, paths) in found.paths.iter().enumerate() {
             deadline.check()?;
             let arrivals: Vec<Arrival> = paths
                 .iter()
-                .map(|p| arrival(scene, p, listener_points[l], speed, options.air.as_ref()))
+                .map(|p| {
+                    let air = options.air.as_ref();
+                    arrival(scene, p, listener_points[l], speed, air, surface_share)
+                })
                 .collect();
-            let impulse_response = signal::synthesize(&arrivals, &ir_options)?;
-            let parameters = signal::per_band(&arrivals, &bands)?
+            let histogram: Option<&EnergyHistogram> = tail.as_ref().map(|t| &t.histograms[l]);
+            let impulse_response = signal::synthesize_with_tail(&arrivals, histogram, &ir_options)?;
+            let parameters = signal::per_band_with_tail(&arrivals, histogram, &bands)?
                 .into_iter()
                 .map(|(band_hz, parameters)| BandParameters {
                     band_hz,
@@ -333,27 +385,41 @@ fn simulate_with(
                     paths: sound_paths.len(),
                     beams_reused,
                     trace_ms,
+                    tail: tail.as_ref().map(|t| t.stats.clone()),
                     total_ms: start.elapsed().as_secs_f64() * 1e3,
                     threads: rayon::current_num_threads(),
                 },
                 paths: sound_paths,
                 parameters,
                 impulse_response,
+                late_energy: histogram.cloned(),
             });
         }
     }
     Ok(out)
 }
 
-/// The path's arrival: surface factors (pressure: `sqrt(1 - alpha)` per
-/// reflection, `sqrt(tau)` per transmission), spherical spreading and air
-/// absorption, from the direction of its last leg.
+/// Which share of a reflection a specular path carries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SurfaceShare {
+    /// All the reflected energy, `1 − α`: the paths are the whole answer.
+    Reflected,
+    /// Its specular part, `(1 − α)(1 − s)`: the scattered rest is the
+    /// tail's.
+    Specular,
+}
+
+/// The path's arrival: surface factors (pressure: the square root of the
+/// reflection's `share` per reflection, `sqrt(tau)` per transmission),
+/// spherical spreading and air absorption, from the direction of its last
+/// leg.
 pub fn arrival(
     scene: &AcousticScene,
     p: &ValidPath,
     listener: DVec3,
     speed: f64,
     air: Option<&AirConditions>,
+    share: SurfaceShare,
 ) -> Arrival {
     let mut gain: Bands = [1.0; BAND_COUNT];
     for v in &p.vertices {
@@ -362,6 +428,8 @@ pub fn arrival(
             for (b, g) in gain.iter_mut().enumerate() {
                 *g *= if v.event.is_transmission() {
                     m.transmission[b].sqrt()
+                } else if share == SurfaceShare::Specular {
+                    ((1.0 - m.absorption[b]) * (1.0 - m.scattering[b])).sqrt()
                 } else {
                     (1.0 - m.absorption[b]).sqrt()
                 };

@@ -19,6 +19,7 @@ use serde::{Deserialize, Serialize};
 use super::air::AirConditions;
 use super::filter_bank::{tail_samples, OctaveFilterBank};
 use super::head::{ear_responses, ListenerFrame};
+use super::histogram::EnergyHistogram;
 use super::Arrival;
 use crate::scene::{Bands, BAND_COUNT, OCTAVE_BANDS_HZ};
 use crate::{Error, Result};
@@ -141,6 +142,18 @@ pub fn synthesize(
     arrivals: &[Arrival],
     options: &ImpulseResponseOptions,
 ) -> Result<ImpulseResponse> {
+    synthesize_with_tail(arrivals, None, options)
+}
+
+/// [`synthesize`] with a late part: `tail`'s Dirac sequence (one per
+/// channel, see [`EnergyHistogram::dirac_sequence`]) added to the
+/// arrivals before the filter bank, so the response lasts at least as
+/// long as the histogram.
+pub fn synthesize_with_tail(
+    arrivals: &[Arrival],
+    tail: Option<&EnergyHistogram>,
+    options: &ImpulseResponseOptions,
+) -> Result<ImpulseResponse> {
     let options = options.clone().validated()?;
     validate_arrivals(arrivals)?;
     let rate = f64::from(options.sample_rate);
@@ -177,7 +190,7 @@ pub fn synthesize(
         .iter()
         .flatten()
         .map(|p| p.position)
-        .fold(0.0, f64::max);
+        .fold(tail.map_or(0.0, |t| t.duration_s() * rate), f64::max);
     let len_f = last.ceil() + (KERNEL_HALF + tail_samples(options.sample_rate)) as f64;
     if len_f / rate > MAX_DURATION_S {
         return Err(Error::InvalidAudio(format!(
@@ -188,7 +201,19 @@ pub fn synthesize(
     let len = len_f as usize;
     let rendered = channels
         .iter()
-        .map(|placements| render_channel(placements, &options.bands, len, options.sample_rate))
+        .enumerate()
+        .map(|(channel, placements)| {
+            let diracs = tail.map_or_else(Vec::new, |t| {
+                t.dirac_sequence(channel as u64, options.sample_rate)
+            });
+            render_channel(
+                placements,
+                &diracs,
+                &options.bands,
+                len,
+                options.sample_rate,
+            )
+        })
         .collect::<Result<Vec<_>>>()?;
     Ok(ImpulseResponse {
         sample_rate: options.sample_rate,
@@ -220,9 +245,11 @@ fn validate_arrivals(arrivals: &[Arrival]) -> Result<()> {
 }
 
 /// One channel: each band's arrivals written with the fractional-delay
-/// kernel, then filtered and summed by the octave filter bank.
+/// kernel and its tail impulses `diracs` (sample, gains) on their samples,
+/// then filtered and summed by the octave filter bank.
 fn render_channel(
     placements: &[Placement],
+    diracs: &[(usize, Bands)],
     bands: &[usize],
     len: usize,
     sample_rate: u32,
@@ -250,6 +277,11 @@ fn render_channel(
             let end = (start + taps.len()).min(len);
             for (out, &tap) in signal[start..end].iter_mut().zip(taps) {
                 *out += gain * tap;
+            }
+        }
+        for &(i, gains) in diracs {
+            if let Some(out) = signal.get_mut(i) {
+                *out += f64::from(gains[band]);
             }
         }
         bank.add(band);

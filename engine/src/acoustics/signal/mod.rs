@@ -8,6 +8,8 @@
 //!   signals into one broadband signal;
 //! - [`impulse_response`]: rendering arrivals into a mono or binaural
 //!   impulse response;
+//! - [`histogram`]: the late part as an energy histogram per band, and the
+//!   Dirac sequence that renders it;
 //! - [`room_parameters`]: ISO 3382-1 parameters (EDT, T20, T30, C50, C80,
 //!   D50, Ts) from an echogram;
 //! - [`wav`]: reading and writing WAV files;
@@ -17,6 +19,7 @@ pub mod air;
 pub mod convolve;
 pub mod filter_bank;
 pub mod head;
+pub mod histogram;
 pub mod impulse_response;
 pub mod room_parameters;
 pub mod wav;
@@ -25,8 +28,11 @@ pub use air::AirConditions;
 pub use convolve::{auralize, convolve};
 pub use filter_bank::filter_and_sum;
 pub use head::{ear_responses, ListenerFrame};
-pub use impulse_response::{synthesize, Channels, ImpulseResponse, ImpulseResponseOptions};
-pub use room_parameters::{per_band, RoomParameters};
+pub use histogram::EnergyHistogram;
+pub use impulse_response::{
+    synthesize, synthesize_with_tail, Channels, ImpulseResponse, ImpulseResponseOptions,
+};
+pub use room_parameters::{per_band, per_band_with_tail, RoomParameters};
 pub use wav::{read_wav, write_wav, write_wav_to};
 
 /// One sound arrival at a listener.

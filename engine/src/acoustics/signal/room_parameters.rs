@@ -21,6 +21,7 @@
 
 use serde::Serialize;
 
+use super::histogram::EnergyHistogram;
 use super::Arrival;
 use crate::scene::{BAND_COUNT, OCTAVE_BANDS_HZ};
 use crate::{Error, Result};
@@ -126,6 +127,16 @@ impl RoomParameters {
 /// Errors: a band index out of range, or an arrival with a negative or
 /// non-finite delay or a non-finite gain.
 pub fn per_band(arrivals: &[Arrival], bands: &[usize]) -> Result<Vec<(f32, RoomParameters)>> {
+    per_band_with_tail(arrivals, None, bands)
+}
+
+/// [`per_band`] of the arrivals and, when given, the late energy of `tail`
+/// (each bin at its centre).
+pub fn per_band_with_tail(
+    arrivals: &[Arrival],
+    tail: Option<&EnergyHistogram>,
+    bands: &[usize],
+) -> Result<Vec<(f32, RoomParameters)>> {
     if let Some(&band) = bands.iter().find(|&&b| b >= BAND_COUNT) {
         return Err(Error::InvalidAudio(format!(
             "band index {band} is out of range: bands are 0 to {}",
@@ -142,6 +153,9 @@ pub fn per_band(arrivals: &[Arrival], bands: &[usize]) -> Result<Vec<(f32, RoomP
                     .iter()
                     .map(|a| (a.delay_s, f64::from(a.pressure_gain[band]).powi(2))),
             );
+            if let Some(tail) = tail {
+                echogram.extend(tail.echogram(band));
+            }
             Ok((
                 OCTAVE_BANDS_HZ[band],
                 RoomParameters::from_energy(&echogram)?,

@@ -204,6 +204,23 @@ impl Surfaces {
         self.corners.len()
     }
 
+    /// Total area of the triangles, m², and the volume they enclose, m³:
+    /// the magnitude of the sum of signed tetrahedra from the origin
+    /// (divergence theorem), exact for a closed mesh of either winding and
+    /// meaningless for an open one, which the caller must bound.
+    pub fn area_and_volume(&self) -> (f64, f64) {
+        let (area, volume) = self
+            .corners
+            .iter()
+            .map(|c| {
+                let [a, b, c] = c.map(|p| p.as_dvec3());
+                let cross = (b - a).cross(c - a);
+                (0.5 * cross.length(), a.dot(b.cross(c)) / 6.0)
+            })
+            .fold((0.0, 0.0), |(sa, sv), (a, v)| (sa + a, sv + v));
+        (area, volume.abs())
+    }
+
     /// First flat index of `object`'s triangles.
     #[inline]
     pub(crate) fn object_base(&self, object: usize) -> usize {

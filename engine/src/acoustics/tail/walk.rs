@@ -1,0 +1,337 @@
+//! One ray's random walk through the scene, and the tally of the energy it
+//! hands the listeners.
+
+use std::f64::consts::PI;
+use std::ops::Range;
+
+use glam::DVec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::{TailInput, BIN_S};
+use crate::acoustics::AcousticScene;
+use crate::deadline::{Deadline, CLOCK_PERIOD};
+use crate::geometry::Ray;
+use crate::scene::BAND_COUNT;
+use crate::Result;
+
+/// Energy per band.
+type Energy = [f64; BAND_COUNT];
+
+/// A ray stops this far below its starting energy in every band (−60 dB).
+const STOP_FRACTION: f64 = 1e-6;
+/// The most surface hits one ray follows: a ray caught between two close
+/// parallel planes must not run for ever.
+const MAX_HITS: u32 = 1 << 16;
+
+/// Energy per listener and bin, and counts, summed over some rays.
+pub(super) struct Tally {
+    /// `energy[listener][bin][band]`.
+    pub energy: Vec<Vec<Energy>>,
+    pub reflections: u64,
+    pub shadow_rays: u64,
+}
+
+impl Tally {
+    pub fn new(listeners: usize) -> Self {
+        Self {
+            energy: vec![Vec::new(); listeners],
+            reflections: 0,
+            shadow_rays: 0,
+        }
+    }
+
+    pub fn add(&mut self, other: &Tally) {
+        for (mine, theirs) in self.energy.iter_mut().zip(&other.energy) {
+            if mine.len() < theirs.len() {
+                mine.resize(theirs.len(), [0.0; BAND_COUNT]);
+            }
+            for (m, t) in mine.iter_mut().zip(theirs) {
+                for (a, b) in m.iter_mut().zip(t) {
+                    *a += b;
+                }
+            }
+        }
+        self.reflections += other.reflections;
+        self.shadow_rays += other.shadow_rays;
+    }
+
+    /// Adds `energy · weight` at `listener`, arriving at `time_s`.
+    fn deposit(&mut self, listener: usize, time_s: f64, energy: &Energy, weight: f64) {
+        let bin = (time_s / BIN_S) as usize;
+        let bins = &mut self.energy[listener];
+        if bins.len() <= bin {
+            bins.resize(bin + 1, [0.0; BAND_COUNT]);
+        }
+        for (slot, e) in bins[bin].iter_mut().zip(energy) {
+            *slot += e * weight;
+        }
+    }
+}
+
+/// A surface's energy fractions per band at one hit.
+struct Surface {
+    reflected: Energy,
+    scattered: Energy,
+    transmitted: Energy,
+}
+
+/// Everything the rays of one source share.
+pub(super) struct Walk<'a> {
+    scene: &'a AcousticScene,
+    source: DVec3,
+    listeners: &'a [DVec3],
+    radius: f64,
+    sphere_volume: f64,
+    exact_order: u32,
+    active: [bool; BAND_COUNT],
+    /// Each ray's starting energy per active band.
+    start: Energy,
+    speed: f64,
+    max_length_m: f64,
+    /// How far off a surface a ray restarts, so it does not hit it again.
+    offset: f64,
+    seed: u64,
+}
+
+impl<'a> Walk<'a> {
+    pub fn new(
+        scene: &'a AcousticScene,
+        source: DVec3,
+        listeners: &'a [DVec3],
+        input: &TailInput,
+        radius: f64,
+    ) -> Self {
+        let share = 4.0 * PI / f64::from(input.options.rays);
+        Self {
+            scene,
+            source,
+            listeners,
+            radius,
+            sphere_volume: 4.0 / 3.0 * PI * radius.powi(3),
+            exact_order: input.exact_order,
+            active: input.active_bands,
+            start: input.active_bands.map(|a| if a { share } else { 0.0 }),
+            speed: input.speed_of_sound,
+            max_length_m: input.options.max_length_s * input.speed_of_sound,
+            offset: 1e-6 * scene.surfaces().scale().max(1e-3),
+            seed: input.options.seed,
+        }
+    }
+
+    /// The tally of rays `rays`.
+    pub fn rays(&self, rays: Range<usize>, deadline: &Deadline) -> Result<Tally> {
+        let mut tally = Tally::new(self.listeners.len());
+        for (i, ray) in rays.enumerate() {
+            if i as u64 % CLOCK_PERIOD == 0 {
+                deadline.check()?;
+            }
+            let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
+            rng.set_stream(ray as u64);
+            self.ray(&mut rng, &mut tally);
+        }
+        Ok(tally)
+    }
+
+    fn ray(&self, rng: &mut ChaCha8Rng, tally: &mut Tally) {
+        let mut origin = self.source;
+        let mut dir = uniform_direction(rng);
+        let mut energy = self.start;
+        let stop = STOP_FRACTION * self.start.iter().fold(0.0, |m: f64, &e| m.max(e));
+        let mut travelled = 0.0;
+        // Events so far; whether all were specular (reflections or
+        // transmissions); whether the last was a diffuse reflection.
+        let mut order = 0u32;
+        let mut specular = true;
+        let mut after_diffuse = false;
+        while order < MAX_HITS {
+            let remaining = self.max_length_m - travelled;
+            let ray = Ray::new(origin.as_vec3(), dir.as_vec3()).with_range(0.0, remaining as f32);
+            let hit = self.scene.bvh().closest_hit(&ray);
+            let leg = hit.map_or(remaining, |h| f64::from(h.t));
+            let exact = specular && order <= self.exact_order;
+            if !(after_diffuse || exact) {
+                self.cross_spheres(origin, dir, leg, travelled, &energy, tally);
+            }
+            let Some(hit) = hit else { break };
+            travelled += leg;
+            order += 1;
+            tally.reflections += 1;
+            if travelled >= self.max_length_m {
+                break;
+            }
+            let point = origin + dir * leg;
+            let normal = hit.normal.as_dvec3();
+            // The normal on the side the ray came from.
+            let facing = if dir.dot(normal) < 0.0 {
+                normal
+            } else {
+                -normal
+            };
+            let surface = self.surface(hit.material);
+            if surface.scattered.iter().any(|&s| s > 0.0) {
+                let mut diffuse = energy;
+                for (d, (r, s)) in diffuse
+                    .iter_mut()
+                    .zip(surface.reflected.iter().zip(&surface.scattered))
+                {
+                    *d *= r * s;
+                }
+                self.rain(
+                    point + facing * self.offset,
+                    facing,
+                    travelled,
+                    &diffuse,
+                    tally,
+                );
+            }
+            let through = self.mean(&surface.transmitted, &energy);
+            let back = self.mean(&surface.reflected, &energy);
+            if through + back <= 0.0 {
+                break;
+            }
+            let p_through = through / (through + back);
+            if rng.random::<f64>() < p_through {
+                for (e, t) in energy.iter_mut().zip(&surface.transmitted) {
+                    *e *= t / p_through;
+                }
+                origin = point - facing * self.offset;
+                after_diffuse = false;
+            } else {
+                let p_diffuse = self.mean(&surface.scattered, &self.active.map(f64::from));
+                let diffusely = rng.random::<f64>() < p_diffuse;
+                for ((e, r), s) in energy
+                    .iter_mut()
+                    .zip(&surface.reflected)
+                    .zip(&surface.scattered)
+                {
+                    let share = if diffusely {
+                        s / p_diffuse
+                    } else {
+                        (1.0 - s) / (1.0 - p_diffuse)
+                    };
+                    *e *= r * share / (1.0 - p_through);
+                }
+                dir = if diffusely {
+                    lambert_direction(rng, facing)
+                } else {
+                    dir - 2.0 * dir.dot(normal) * normal
+                };
+                origin = point + facing * self.offset;
+                specular &= !diffusely;
+                after_diffuse = diffusely;
+            }
+            if energy.iter().all(|&e| e < stop) {
+                break;
+            }
+        }
+    }
+
+    /// The mean over active bands of `fraction`, weighted by `energy`.
+    fn mean(&self, fraction: &Energy, energy: &Energy) -> f64 {
+        let (mut sum, mut weight) = (0.0, 0.0);
+        for b in 0..BAND_COUNT {
+            if self.active[b] {
+                sum += fraction[b] * energy[b];
+                weight += energy[b];
+            }
+        }
+        if weight > 0.0 {
+            sum / weight
+        } else {
+            0.0
+        }
+    }
+
+    fn surface(&self, material: u16) -> Surface {
+        match self.scene.materials().get(material as usize) {
+            Some(m) => Surface {
+                reflected: m.absorption.map(|a| 1.0 - f64::from(a)),
+                scattered: m.scattering.map(f64::from),
+                transmitted: m.transmission.map(f64::from),
+            },
+            None => Surface {
+                reflected: [1.0; BAND_COUNT],
+                scattered: [0.0; BAND_COUNT],
+                transmitted: [0.0; BAND_COUNT],
+            },
+        }
+    }
+
+    /// The track-length estimate of the leg `origin + dir · [0, leg]`,
+    /// `travelled` metres from the source, at every listener's sphere.
+    fn cross_spheres(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        leg: f64,
+        travelled: f64,
+        energy: &Energy,
+        tally: &mut Tally,
+    ) {
+        let r2 = self.radius * self.radius;
+        for (l, &listener) in self.listeners.iter().enumerate() {
+            let to = listener - origin;
+            let along = to.dot(dir);
+            let miss2 = to.length_squared() - along * along;
+            if miss2 >= r2 {
+                continue;
+            }
+            let half = (r2 - miss2).sqrt();
+            let chord = (along + half).min(leg) - (along - half).max(0.0);
+            if chord <= 0.0 {
+                continue;
+            }
+            let time = (travelled + along.clamp(0.0, leg)) / self.speed;
+            tally.deposit(l, time, energy, chord / self.sphere_volume);
+        }
+    }
+
+    /// Sends the diffusely reflected `energy` at `point` (facing `facing`)
+    /// to every listener in front of it that it can see, by Lambert's law.
+    /// Closer than the sphere radius, the distance is held at the radius:
+    /// the sphere is the listener's size, and the variance stays bounded.
+    fn rain(
+        &self,
+        point: DVec3,
+        facing: DVec3,
+        travelled: f64,
+        energy: &Energy,
+        tally: &mut Tally,
+    ) {
+        for (l, &listener) in self.listeners.iter().enumerate() {
+            let to = listener - point;
+            let distance = to.length();
+            let cos = to.dot(facing) / distance;
+            if cos.is_nan() || cos <= 0.0 || travelled + distance > self.max_length_m {
+                continue;
+            }
+            tally.shadow_rays += 1;
+            let shadow = Ray::segment(point.as_vec3(), listener.as_vec3());
+            if self.scene.bvh().any_hit(&shadow) {
+                continue;
+            }
+            let weight = cos / (PI * distance.max(self.radius).powi(2));
+            tally.deposit(l, (travelled + distance) / self.speed, energy, weight);
+        }
+    }
+}
+
+/// A direction uniform over the sphere.
+fn uniform_direction(rng: &mut ChaCha8Rng) -> DVec3 {
+    let z = 1.0 - 2.0 * rng.random::<f64>();
+    let phi = 2.0 * PI * rng.random::<f64>();
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    DVec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// A direction in the hemisphere around `normal`, with density
+/// proportional to the cosine from it (Lambert's law).
+fn lambert_direction(rng: &mut ChaCha8Rng, normal: DVec3) -> DVec3 {
+    let (u, v) = normal.any_orthonormal_pair();
+    let r2 = rng.random::<f64>();
+    let phi = 2.0 * PI * rng.random::<f64>();
+    let r = r2.sqrt();
+    let z = (1.0 - r2).max(0.0).sqrt();
+    (u * (r * phi.cos()) + v * (r * phi.sin()) + normal * z).normalize()
+}

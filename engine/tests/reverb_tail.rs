@@ -1,0 +1,325 @@
+//! The hybrid impulse response (exact paths, then the stochastic tail)
+//! against answers that share no code with it: the closed-form image
+//! sources of a shoebox, summed here in f64 to convergence, with their own
+//! Schroeder integration and line fits; and Eyring's formula for rooms
+//! whose walls scatter everything.
+
+use frusta_engine::acoustics::{
+    simulate, AcousticScene, Response, SimulationOptions, Tail, TailOptions,
+};
+use frusta_engine::scene::generate::BoxRoom;
+use frusta_engine::scene::{Material, Scene, BAND_COUNT};
+use glam::Vec3;
+
+const ROOM: [f64; 3] = [10.0, 6.0, 3.0];
+const SOURCE: [f64; 3] = [2.0, 3.0, 1.5];
+const LISTENER: [f64; 3] = [7.0, 2.0, 1.2];
+/// The 1 kHz band.
+const BAND: usize = 4;
+
+fn shoebox(absorption: f32, scattering: f32) -> AcousticScene {
+    let room = BoxRoom::new(Vec3::ZERO, Vec3::from_array(ROOM.map(|v| v as f32)));
+    let mut walls = Material::uniform("walls", absorption).unwrap();
+    walls.scattering = [scattering; BAND_COUNT];
+    AcousticScene::new(&Scene::single_object("room", room.generate().unwrap(), walls).unwrap())
+}
+
+fn respond(scene: &AcousticScene, max_order: u32, tail: Tail) -> Response {
+    let options = SimulationOptions {
+        max_order,
+        bands_hz: vec![1000.0],
+        air: None,
+        tail,
+        ..Default::default()
+    };
+    let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
+    simulate(scene, &[point(SOURCE)], &[point(LISTENER)], &options)
+        .unwrap()
+        .remove(0)
+}
+
+/// (time s, energy) of every shoebox image source arriving before
+/// `until_s`, with `(1 − α)` per reflection: image index `m` on an axis
+/// of length `L` lies at `m L + (x if m is even else L − x)` after `|m|`
+/// reflections.
+fn image_sources(absorption: f64, speed: f64, until_s: f64) -> Vec<(f64, f64, u32)> {
+    let reach = until_s * speed;
+    let mut out = Vec::new();
+    let axis = |m: i64, axis: usize| {
+        let l = ROOM[axis];
+        let x = SOURCE[axis];
+        m as f64 * l + if m % 2 == 0 { x } else { l - x }
+    };
+    let limit = |a: usize| (reach / ROOM[a]).ceil() as i64 + 1;
+    for mx in -limit(0)..=limit(0) {
+        let dx = axis(mx, 0) - LISTENER[0];
+        if dx.abs() > reach {
+            continue;
+        }
+        for my in -limit(1)..=limit(1) {
+            let dy = axis(my, 1) - LISTENER[1];
+            if dx * dx + dy * dy > reach * reach {
+                continue;
+            }
+            for mz in -limit(2)..=limit(2) {
+                let dz = axis(mz, 2) - LISTENER[2];
+                let d2 = dx * dx + dy * dy + dz * dz;
+                if d2 > reach * reach {
+                    continue;
+                }
+                let order = (mx.abs() + my.abs() + mz.abs()) as u32;
+                let energy = (1.0 - absorption).powi(order as i32) / d2;
+                out.push((d2.sqrt() / speed, energy, order));
+            }
+        }
+    }
+    out
+}
+
+/// EDT and T20 of an echogram by Schroeder backward integration on a
+/// 0.1 ms grid from the first arrival and least-squares lines over 0 to
+/// −10 dB and −5 to −25 dB.
+fn decay_times(echogram: &[(f64, f64)]) -> (f64, f64) {
+    let step = 1e-4;
+    let start = echogram.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
+    let end = echogram.iter().map(|e| e.0).fold(0.0, f64::max);
+    let n = ((end - start) / step) as usize + 2;
+    let mut bins = vec![0.0; n];
+    for &(t, e) in echogram {
+        bins[((t - start) / step) as usize] += e;
+    }
+    let mut remaining = vec![0.0; n + 1];
+    for i in (0..n).rev() {
+        remaining[i] = remaining[i + 1] + bins[i];
+    }
+    let level: Vec<f64> = remaining[..n]
+        .iter()
+        .map(|&r| 10.0 * (r / remaining[0]).log10())
+        .collect();
+    let fit = |top: f64, bottom: f64| {
+        let points: Vec<(f64, f64)> = level
+            .iter()
+            .enumerate()
+            .skip_while(|(_, &l)| l > top)
+            .take_while(|(_, &l)| l >= bottom)
+            .map(|(i, &l)| (i as f64 * step, l))
+            .collect();
+        let k = points.len() as f64;
+        let (sx, sy) = points
+            .iter()
+            .fold((0.0, 0.0), |(a, b), p| (a + p.0, b + p.1));
+        let (mx, my) = (sx / k, sy / k);
+        let (num, den) = points.iter().fold((0.0, 0.0), |(a, b), p| {
+            (a + (p.0 - mx) * (p.1 - my), b + (p.0 - mx).powi(2))
+        });
+        -60.0 / (num / den)
+    };
+    (fit(0.0, -10.0), fit(-5.0, -25.0))
+}
+
+/// The response's echogram at 1 kHz: its paths, then its tail.
+fn echogram(r: &Response) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = r
+        .paths
+        .iter()
+        .map(|p| (p.delay_s, f64::from(p.pressure_gain[0]).powi(2)))
+        .collect();
+    if let Some(tail) = &r.late_energy {
+        out.extend(tail.echogram(BAND));
+    }
+    out
+}
+
+fn within(what: &str, got: f64, want: f64, tolerance: f64) {
+    let error = (got - want).abs() / want;
+    eprintln!("{what}: {got:.4} against {want:.4}");
+    assert!(
+        error <= tolerance,
+        "{what}: {got:.3} against {want:.3} ({:.1} % off, at most {:.0} % allowed)",
+        error * 100.0,
+        tolerance * 100.0
+    );
+}
+
+#[test]
+fn specular_shoebox_decay_matches_converged_image_sources() {
+    let scene = shoebox(0.1, 0.0);
+    let response = respond(&scene, 4, Tail::default());
+    let speed = response.speed_of_sound_m_s;
+    let length = TailOptions::default().max_length_s;
+    // Converged: another half second of images moves neither value by 0.5 %.
+    let reference = |until: f64| {
+        let images: Vec<(f64, f64)> = image_sources(0.1, speed, until)
+            .into_iter()
+            .map(|(t, e, _)| (t, e))
+            .collect();
+        decay_times(&images)
+    };
+    let (edt, t20) = reference(length);
+    let (edt_short, t20_short) = reference(length - 0.5);
+    within("reference EDT convergence", edt_short, edt, 0.005);
+    within("reference T20 convergence", t20_short, t20, 0.005);
+    let (got_edt, got_t20) = decay_times(&echogram(&response));
+    within("EDT", got_edt, edt, 0.05);
+    within("T20", got_t20, t20, 0.05);
+    // The parameters the response reports say the same.
+    let reported = &response.parameters[0].parameters;
+    within("reported EDT", reported.edt_s.unwrap(), edt, 0.05);
+    within("reported T20", reported.t20_s.unwrap(), t20, 0.05);
+}
+
+#[test]
+fn diffuse_shoebox_decay_matches_eyring() {
+    let absorption: f64 = 0.1;
+    let scene = shoebox(absorption as f32, 1.0);
+    let response = respond(&scene, 4, Tail::default());
+    let [x, y, z] = ROOM;
+    let (volume, area) = (x * y * z, 2.0 * (x * y + y * z + z * x));
+    let eyring = 24.0 * 10f64.ln() * volume
+        / (response.speed_of_sound_m_s * -area * (1.0 - absorption).ln());
+    let (_, t20) = decay_times(&echogram(&response));
+    within("T20 against Eyring", t20, eyring, 0.05);
+    // Every wall scatters everything: no specular reflection is left.
+    assert!(response
+        .paths
+        .iter()
+        .all(|p| p.order == 0 || p.pressure_gain[0] == 0.0));
+}
+
+#[test]
+fn the_tail_holds_nothing_the_exact_paths_hold() {
+    let (absorption, scattering): (f64, f64) = (0.2, 0.3);
+    let max_order = 2;
+    let specular = shoebox(absorption as f32, 0.0);
+    let response = respond(&specular, max_order, Tail::default());
+    let speed = response.speed_of_sound_m_s;
+    // Before the first image beyond the exact order can reach the
+    // listener's sphere, a specular room's tail is silent.
+    let images = image_sources(absorption, speed, 0.2);
+    let first_late = images
+        .iter()
+        .filter(|i| i.2 > max_order)
+        .map(|i| i.0)
+        .fold(f64::INFINITY, f64::min);
+    let tail = response.late_energy.as_ref().expect("a tail");
+    let radius = response.stats.tail.as_ref().unwrap().receiver_radius_m;
+    let silent_until = first_late - radius / speed;
+    let early: f64 = tail
+        .echogram(BAND)
+        .filter(|(t, _)| t + 0.5e-3 < silent_until)
+        .map(|e| e.1)
+        .sum();
+    assert_eq!(early, 0.0, "tail energy before {silent_until} s");
+    // The exact part carries each reflection's specular share: with
+    // scattering s, (1 − α)(1 − s) per reflection, image for image.
+    let scattering_room = shoebox(absorption as f32, scattering as f32);
+    let response = respond(&scattering_room, max_order, Tail::default());
+    let mut want: Vec<f64> = images
+        .iter()
+        .filter(|i| i.2 <= max_order)
+        .map(|i| i.1 * (1.0 - scattering).powi(i.2 as i32))
+        .collect();
+    let mut got: Vec<f64> = response
+        .paths
+        .iter()
+        .map(|p| f64::from(p.pressure_gain[0]).powi(2))
+        .collect();
+    want.sort_by(f64::total_cmp);
+    got.sort_by(f64::total_cmp);
+    assert_eq!(got.len(), want.len(), "paths up to order {max_order}");
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() <= 1e-5 * w, "path energy {g} against {w}");
+    }
+    // With no tail the paths keep all the reflected energy, as before.
+    let exact = respond(&scattering_room, max_order, Tail::None);
+    assert!(exact.late_energy.is_none() && exact.stats.tail.is_none());
+    let total = |r: &Response| -> f64 {
+        r.paths
+            .iter()
+            .map(|p| f64::from(p.pressure_gain[0]).powi(2))
+            .sum()
+    };
+    let reflected: f64 = images
+        .iter()
+        .filter(|i| i.2 <= max_order)
+        .map(|i| i.1)
+        .sum();
+    assert!((total(&exact) - reflected).abs() <= 1e-5 * reflected);
+}
+
+#[test]
+fn hybrid_energy_matches_image_sources_in_total() {
+    let absorption = 0.3;
+    let scene = shoebox(absorption as f32, 0.0);
+    let response = respond(&scene, 3, Tail::default());
+    let want: f64 = image_sources(absorption, response.speed_of_sound_m_s, 3.0)
+        .iter()
+        .map(|i| i.1)
+        .sum();
+    let got: f64 = echogram(&response).iter().map(|e| e.1).sum();
+    within("total energy", got, want, 0.03);
+}
+
+#[test]
+fn a_seed_gives_the_same_tail_on_any_thread_count() {
+    let scene = shoebox(0.2, 0.5);
+    let tail = Tail::Stochastic(TailOptions {
+        rays: 2000,
+        ..Default::default()
+    });
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| respond(&scene, 2, tail.clone()))
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!(one.late_energy, two.late_energy);
+    assert_eq!(one.impulse_response, two.impulse_response);
+    let other = respond(
+        &scene,
+        2,
+        Tail::Stochastic(TailOptions {
+            rays: 2000,
+            seed: 1,
+            ..Default::default()
+        }),
+    );
+    assert_ne!(one.late_energy, other.late_energy);
+}
+
+/// Energy conservation, exact for any room shape: with no absorption the
+/// source's energy (4π in the unit of the direct sound at 1 m) ends up
+/// spread evenly through the volume, so a listener receives
+/// `4π c Δt / V` in any interval Δt once the field is mixed.
+#[test]
+fn lossless_diffuse_room_holds_its_energy() {
+    let scene = shoebox(0.0, 1.0);
+    let options = SimulationOptions {
+        max_order: 2,
+        bands_hz: vec![1000.0],
+        air: None,
+        tail: Tail::Stochastic(TailOptions {
+            max_length_s: 1.0,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
+    let r = simulate(&scene, &[point(SOURCE)], &[point(LISTENER)], &options)
+        .unwrap()
+        .remove(0);
+    let volume: f64 = ROOM.iter().product();
+    let (t1, t2) = (0.3, 0.95);
+    let got: f64 = r
+        .late_energy
+        .as_ref()
+        .unwrap()
+        .echogram(BAND)
+        .filter(|e| e.0 >= t1 && e.0 < t2)
+        .map(|e| e.1)
+        .sum();
+    let want = 4.0 * std::f64::consts::PI * r.speed_of_sound_m_s * (t2 - t1) / volume;
+    within("lossless energy", got, want, 0.03);
+}
