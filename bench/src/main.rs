@@ -14,7 +14,10 @@
 //! `frusta-bench update [--scene NAME] [--save DIR]` times moving and
 //! deforming one object by its size (see `update`);
 //! `frusta-bench ccd` and `frusta-bench collide` measure continuous tests
-//! and per-frame discrete collision with parry3d side by side.
+//! and per-frame discrete collision with parry3d side by side;
+//! `frusta-bench reverb [--scene NAME] [--json] [--save DIR]` sets hybrid
+//! impulse responses beside exact image sources, Sabine and Eyring (see
+//! `reverb`).
 
 mod bvh_bench;
 mod ccd;
@@ -24,6 +27,7 @@ mod propagation;
 mod provenance;
 mod rays;
 mod report;
+mod reverb;
 mod serve;
 mod soak;
 mod update;
@@ -64,6 +68,10 @@ enum Command {
     /// a mesh against a moving copy, AABB vs OBB, with and without a BVTT
     /// front, parry3d side by side.
     Collide(collide::Args),
+    /// Hybrid impulse responses (exact paths, then the stochastic tail):
+    /// ISO 3382 parameters per band beside the exact image sources (box
+    /// rooms), Sabine and Eyring, and the time of each part.
+    Reverb(reverb::Args),
 }
 
 fn main() -> ExitCode {
@@ -76,6 +84,7 @@ fn main() -> ExitCode {
         Command::Update(args) => update::run(args),
         Command::Ccd(args) => ccd::run(args),
         Command::Collide(args) => collide::run(args),
+        Command::Reverb(args) => reverb::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -10,7 +10,7 @@ mod plot;
 mod pyroom;
 mod references;
 mod row;
-mod scenes;
+pub(crate) mod scenes;
 mod walls;
 
 use std::collections::HashMap;

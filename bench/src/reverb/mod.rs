@@ -1,0 +1,363 @@
+//! `frusta-bench reverb`: frusta's hybrid impulse response (exact paths to
+//! an order, then the stochastic tail) per scene and band, its ISO 3382
+//! parameters beside the exact image-source answer (box rooms) and
+//! Sabine's and Eyring's diffuse-field decay times, differences in
+//! just-noticeable differences, and the time each part took.
+//!
+//! Box rooms run twice: with their materials (against Sabine and Eyring)
+//! and with no scattering, the room the image sources answer exactly.
+//! Air absorption is off everywhere, so the formulas and the image sources
+//! answer the same question. Halls trace their exact part with sampled
+//! cells (N = 8): conservative cells at order 3 take seconds to minutes
+//! there (see the frustum-tracing issue).
+
+mod theory;
+
+use std::path::PathBuf;
+
+use clap::Parser;
+use frusta_engine::acoustics::signal::RoomParameters;
+use frusta_engine::acoustics::{
+    simulate, AcousticScene, CellAssignment, SimulationOptions, Tail, TailOptions,
+};
+use frusta_engine::scene::{BAND_COUNT, OCTAVE_BANDS_HZ};
+use serde::Serialize;
+
+use crate::propagation::scenes;
+use crate::provenance::{self, Provenance};
+use crate::report::aligned;
+use theory::BoxWalls;
+
+/// Just-noticeable differences (ISO 3382-1 Annex A).
+const JND_DECAY: f64 = 0.05;
+const JND_C80_DB: f64 = 1.0;
+const JND_D50: f64 = 0.05;
+
+#[derive(Parser)]
+pub struct Args {
+    /// Scenes to run (repeatable); default: shoebox, l-room, two-rooms,
+    /// hall-10k, hall-200k.
+    #[arg(long)]
+    scene: Vec<String>,
+    /// Exact (specular) order before the tail.
+    #[arg(long, default_value_t = 3)]
+    order: u32,
+    /// Rays of the tail.
+    #[arg(long, default_value_t = TailOptions::default().rays)]
+    rays: u32,
+    /// Length of the tail, s.
+    #[arg(long, default_value_t = 2.0)]
+    length: f64,
+    /// Timed runs per scene; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    rounds: usize,
+    #[arg(long)]
+    json: bool,
+    /// Directory to write reverb.txt and reverb.json to.
+    #[arg(long)]
+    save: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct Parameters {
+    edt_s: Option<f64>,
+    t20_s: Option<f64>,
+    t30_s: Option<f64>,
+    c80_db: Option<f64>,
+    d50: Option<f64>,
+}
+
+impl From<&RoomParameters> for Parameters {
+    fn from(p: &RoomParameters) -> Self {
+        Self {
+            edt_s: p.edt_s,
+            t20_s: p.t20_s,
+            t30_s: p.t30_s,
+            c80_db: p.c80_db,
+            d50: p.d50,
+        }
+    }
+}
+
+/// Differences in JNDs, frusta minus the reference.
+#[derive(Serialize)]
+struct Jnd {
+    edt: Option<f64>,
+    t20: Option<f64>,
+    t30: Option<f64>,
+    c80: Option<f64>,
+    d50: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Band {
+    band_hz: f32,
+    frusta: Parameters,
+    /// The exact image-source answer (box rooms only).
+    image_sources: Option<Parameters>,
+    sabine_s: f64,
+    eyring_s: f64,
+    /// Against the image sources where there are some, else decay times
+    /// against Eyring.
+    jnd: Jnd,
+}
+
+#[derive(Serialize)]
+struct Run {
+    scene: String,
+    triangles: usize,
+    cells: &'static str,
+    exact_order: u32,
+    rays: u32,
+    tail_s: f64,
+    volume_m3: f64,
+    paths: usize,
+    trace_ms: f64,
+    tail_ms: f64,
+    total_ms: f64,
+    threads: usize,
+    bands: Vec<Band>,
+}
+
+#[derive(Serialize)]
+struct Saved<'a> {
+    provenance: Provenance,
+    rounds: usize,
+    runs: &'a [Run],
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn jnd(frusta: Option<f64>, reference: Option<f64>, relative: bool, step: f64) -> Option<f64> {
+    let (f, r) = (frusta?, reference?);
+    Some(if relative {
+        (f - r) / r / step
+    } else {
+        (f - r) / step
+    })
+}
+
+/// Runs `name` as it is, or with every material's scattering set to zero
+/// (`specular`): the rooms the exact image sources answer.
+fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, String> {
+    let mut bench = scenes::load(name, false)?;
+    if specular {
+        for m in &mut bench.scene.materials {
+            m.scattering = [0.0; BAND_COUNT];
+        }
+    }
+    let scene = AcousticScene::new(&bench.scene);
+    let hall = name.starts_with("hall");
+    let options = SimulationOptions {
+        max_order: args.order,
+        cells: if hall {
+            CellAssignment::Sampled
+        } else {
+            CellAssignment::Conservative
+        },
+        air: None,
+        sample_rate: 48_000,
+        tail: Tail::Stochastic(TailOptions {
+            rays: args.rays,
+            max_length_s: args.length,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let (source, listener) = (bench.source.as_vec3(), bench.listener.as_vec3());
+    let mut timings = Vec::new();
+    let mut last = None;
+    for _ in 0..args.rounds.max(1) {
+        let r = simulate(&scene, &[source], &[listener], &options)
+            .map_err(|e| e.to_string())?
+            .remove(0);
+        let tail = r.stats.tail.as_ref().map_or(0.0, |t| t.trace_ms);
+        timings.push((r.stats.trace_ms, tail, r.stats.total_ms));
+        last = Some(r);
+    }
+    let r = last.expect("one round at least");
+    let speed = r.speed_of_sound_m_s;
+    let volume = r.stats.tail.as_ref().map_or(0.0, |t| t.volume_m3);
+    let (sabine, eyring) = theory::diffuse_field(&bench.scene, volume, speed);
+    let exact = BoxWalls::of(&bench.scene)
+        .filter(|_| specular)
+        .map(|walls| walls.image_sources(bench.source, bench.listener, speed, args.length));
+    let bands = r
+        .parameters
+        .iter()
+        .map(|b| {
+            let band = OCTAVE_BANDS_HZ
+                .iter()
+                .position(|&hz| hz == b.band_hz)
+                .unwrap_or(0);
+            let p = &b.parameters;
+            let reference = exact.as_ref().map(|e| &e[band]);
+            let decay = |f: Option<f64>, e: Option<f64>| match reference {
+                Some(_) => jnd(f, e, true, JND_DECAY),
+                None => jnd(f, Some(eyring[band]), true, JND_DECAY),
+            };
+            Band {
+                band_hz: b.band_hz,
+                frusta: p.into(),
+                image_sources: reference.map(Parameters::from),
+                sabine_s: sabine[band],
+                eyring_s: eyring[band],
+                jnd: Jnd {
+                    edt: decay(p.edt_s, reference.and_then(|e| e.edt_s)),
+                    t20: decay(p.t20_s, reference.and_then(|e| e.t20_s)),
+                    t30: decay(p.t30_s, reference.and_then(|e| e.t30_s)),
+                    c80: jnd(
+                        p.c80_db,
+                        reference.and_then(|e| e.c80_db),
+                        false,
+                        JND_C80_DB,
+                    ),
+                    d50: jnd(p.d50, reference.and_then(|e| e.d50), false, JND_D50),
+                },
+            }
+        })
+        .collect();
+    Ok(Run {
+        scene: if specular {
+            format!("{name} (no scattering)")
+        } else {
+            name.to_string()
+        },
+        triangles: bench.scene.triangle_count(),
+        cells: if hall { "sampled" } else { "conservative" },
+        exact_order: args.order,
+        rays: args.rays,
+        tail_s: args.length,
+        volume_m3: volume,
+        paths: r.paths.len(),
+        trace_ms: median(timings.iter().map(|t| t.0).collect()),
+        tail_ms: median(timings.iter().map(|t| t.1).collect()),
+        total_ms: median(timings.iter().map(|t| t.2).collect()),
+        threads: r.stats.threads,
+        bands,
+    })
+}
+
+pub fn run(args: Args) -> Result<(), String> {
+    let mut provenance = provenance::start(rayon::current_num_threads());
+    let names: Vec<&'static str> = if args.scene.is_empty() {
+        vec!["shoebox", "l-room", "two-rooms", "hall-10k", "hall-200k"]
+    } else {
+        args.scene
+            .iter()
+            .map(|s| {
+                scenes::NAMES
+                    .iter()
+                    .copied()
+                    .find(|n| n == s)
+                    .ok_or_else(|| format!("unknown scene {s}; one of {:?}", scenes::NAMES))
+            })
+            .collect::<Result<_, _>>()?
+    };
+    let mut runs = Vec::new();
+    for name in names {
+        runs.push(run_scene(name, false, &args)?);
+        if name == "shoebox" {
+            runs.push(run_scene(name, true, &args)?);
+        }
+    }
+    provenance.finish();
+    let text = table(&runs, &provenance, &args);
+    if args.json {
+        let json = serde_json::json!({ "runs": &runs });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?
+        );
+    } else {
+        print!("{text}");
+    }
+    if let Some(dir) = &args.save {
+        let saved = Saved {
+            provenance,
+            rounds: args.rounds,
+            runs: &runs,
+        };
+        let json = serde_json::to_string_pretty(&saved).map_err(|e| e.to_string())?;
+        std::fs::write(dir.join("reverb.json"), json + "\n").map_err(|e| e.to_string())?;
+        std::fs::write(dir.join("reverb.txt"), text).map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
+    let mut out = provenance.header();
+    out += &format!(
+        "\nhybrid IR: exact order {} then a {} s tail of {} rays, 8 bands, 48 kHz mono, no air; \
+         times are medians of {} runs; JND = (frusta - reference) in just-noticeable differences \
+         (5 % decay times, 1 dB C80, 0.05 D50) against the exact image sources (boxes) or, \
+         for decay times, Eyring\n",
+        args.order, args.length, args.rays, args.rounds
+    );
+    let f = |v: Option<f64>, digits: usize| v.map_or("-".into(), |v| format!("{v:.digits$}"));
+    for run in runs {
+        out += &format!(
+            "\n{}: {} triangles, {} cells, {:.0} m³, {} paths; exact part {:.1} ms, tail {:.1} ms, \
+             total {:.1} ms ({} threads)\n",
+            run.scene,
+            run.triangles,
+            run.cells,
+            run.volume_m3,
+            run.paths,
+            run.trace_ms,
+            run.tail_ms,
+            run.total_ms,
+            run.threads
+        );
+        let mut rows = vec![[
+            "band Hz",
+            "EDT s",
+            "T20 s",
+            "T30 s",
+            "C80 dB",
+            "D50",
+            "exact EDT",
+            "exact T20",
+            "exact T30",
+            "exact C80",
+            "exact D50",
+            "Eyring s",
+            "Sabine s",
+            "JND EDT",
+            "JND T20",
+            "JND T30",
+            "JND C80",
+            "JND D50",
+        ]
+        .map(String::from)
+        .to_vec()];
+        for b in &run.bands {
+            let e = b.image_sources.as_ref();
+            rows.push(vec![
+                format!("{}", b.band_hz),
+                f(b.frusta.edt_s, 2),
+                f(b.frusta.t20_s, 2),
+                f(b.frusta.t30_s, 2),
+                f(b.frusta.c80_db, 2),
+                f(b.frusta.d50, 3),
+                f(e.and_then(|e| e.edt_s), 2),
+                f(e.and_then(|e| e.t20_s), 2),
+                f(e.and_then(|e| e.t30_s), 2),
+                f(e.and_then(|e| e.c80_db), 2),
+                f(e.and_then(|e| e.d50), 3),
+                format!("{:.2}", b.eyring_s),
+                format!("{:.2}", b.sabine_s),
+                f(b.jnd.edt, 1),
+                f(b.jnd.t20, 1),
+                f(b.jnd.t30, 1),
+                f(b.jnd.c80, 1),
+                f(b.jnd.d50, 1),
+            ]);
+        }
+        out += &aligned(&rows, 0);
+    }
+    out
+}
