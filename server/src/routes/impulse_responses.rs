@@ -147,6 +147,38 @@ mod tests {
     }
 
     #[tokio::test]
+    async fn the_tail_is_on_by_default_and_none_turns_it_off() {
+        let server = TestServer::new();
+        let ask = |tail: Value| {
+            let mut body = json!({
+                "sources": [{"position": [2, 3, 1.5]}],
+                "listeners": [{"position": [7, 3, 1.2]}],
+                "max_order": 1, "sample_rate": 8000, "bands_hz": [1000]
+            });
+            if !tail.is_null() {
+                body["tail"] = tail;
+            }
+            body.to_string()
+        };
+        let mut frames = Vec::new();
+        for (tail, rays) in [
+            (Value::Null, Some(8192)),
+            (json!({"rays": 500, "max_length_s": 1.5}), Some(500)),
+            (json!("none"), None),
+        ] {
+            let (status, _, body) = server.send(post_json(URI, &ask(tail))).await;
+            assert_eq!(status, StatusCode::OK, "{body}");
+            let response = &body["responses"][0];
+            assert_eq!(response["stats"]["tail"]["rays"].as_u64(), rays);
+            frames.push(response["frames"].as_u64().unwrap_or(0));
+        }
+        // With a tail the response lasts into the reverberation; without,
+        // it ends after the last first-order path.
+        assert!(frames[0] > 8000 && frames[1] > 8000, "{frames:?}");
+        assert!(frames[2] < 2000, "{frames:?}");
+    }
+
+    #[tokio::test]
     async fn wav_for_one_pair() {
         let server = TestServer::new();
         let body = r#"{"sources": [{"position": [2, 3, 1.5]}], "listeners": [{"position": [7, 3, 1.2]}], "max_order": 1, "channels": "binaural"}"#;
@@ -201,6 +233,22 @@ mod tests {
             (
                 format!(r#"{{"sources": {s}, "listeners": {s}, "colour": "red"}}"#),
                 "colour",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": {s}, "tail": {{"rayz": 10}}}}"#),
+                "rayz",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": {s}, "tail": "some"}}"#),
+                "none",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": {s}, "tail": {{"rays": 1000000}}}}"#),
+                "tail.rays",
+            ),
+            (
+                format!(r#"{{"sources": {s}, "listeners": {s}, "tail": {{"max_length_s": 0}}}}"#),
+                "tail.max_length_s",
             ),
             (
                 format!(
