@@ -119,26 +119,20 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     counted.total.ns_per_query = median(total_times) / counted.total.queries as f64;
     let text = table(&counted, &provenance, &args);
-    if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&counted).map_err(|e| e.to_string())?
-        );
-    } else {
-        print!("{text}");
-    }
-    if let Some(dir) = &args.save {
-        let saved = Saved {
-            provenance,
-            tolerance: args.tolerance,
-            rounds: args.rounds,
-            counted: &counted,
-        };
-        let json = serde_json::to_string_pretty(&saved).map_err(|e| e.to_string())?;
-        std::fs::write(dir.join("ccd.json"), json + "\n").map_err(|e| e.to_string())?;
-        std::fs::write(dir.join("ccd.txt"), text).map_err(|e| e.to_string())?;
-    }
-    Ok(())
+    let saved = Saved {
+        provenance,
+        tolerance: args.tolerance,
+        rounds: args.rounds,
+        counted: &counted,
+    };
+    provenance::emit(
+        "ccd",
+        &counted,
+        &saved,
+        &text,
+        args.json,
+        args.save.as_deref(),
+    )
 }
 
 fn table(counted: &Counted, provenance: &Provenance, args: &Args) -> String {

@@ -138,3 +138,28 @@ impl Provenance {
         )
     }
 }
+
+/// Prints a run, as pretty JSON (`printed`) or its text table, and with
+/// `save` writes `NAME.json` (`saved`: the run with its provenance) and
+/// `NAME.txt` (the table) into that directory.
+pub fn emit(
+    name: &str,
+    printed: &impl Serialize,
+    saved: &impl Serialize,
+    text: &str,
+    json: bool,
+    save: Option<&Path>,
+) -> Result<(), String> {
+    if json {
+        let out = serde_json::to_string_pretty(printed).map_err(|e| e.to_string())?;
+        println!("{out}");
+    } else {
+        print!("{text}");
+    }
+    if let Some(dir) = save {
+        let out = serde_json::to_string_pretty(saved).map_err(|e| e.to_string())?;
+        std::fs::write(dir.join(format!("{name}.json")), out + "\n").map_err(|e| e.to_string())?;
+        std::fs::write(dir.join(format!("{name}.txt")), text).map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}

@@ -430,25 +430,19 @@ pub fn run(args: Args) -> Result<(), String> {
     provenance.finish();
     let report = Report { runs };
     let text = table(&report, &provenance, &args);
-    if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
-        );
-    } else {
-        print!("{text}");
-    }
-    if let Some(dir) = &args.save {
-        let saved = Saved {
-            provenance,
-            rounds: args.rounds,
-            report: &report,
-        };
-        let json = serde_json::to_string_pretty(&saved).map_err(|e| e.to_string())?;
-        std::fs::write(dir.join("collide.json"), json + "\n").map_err(|e| e.to_string())?;
-        std::fs::write(dir.join("collide.txt"), text).map_err(|e| e.to_string())?;
-    }
-    Ok(())
+    let saved = Saved {
+        provenance,
+        rounds: args.rounds,
+        report: &report,
+    };
+    provenance::emit(
+        "collide",
+        &report,
+        &saved,
+        &text,
+        args.json,
+        args.save.as_deref(),
+    )
 }
 
 fn table(report: &Report, provenance: &Provenance, args: &Args) -> String {

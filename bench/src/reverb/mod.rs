@@ -266,26 +266,20 @@ pub fn run(args: Args) -> Result<(), String> {
     }
     provenance.finish();
     let text = table(&runs, &provenance, &args);
-    if args.json {
-        let json = serde_json::json!({ "runs": &runs });
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?
-        );
-    } else {
-        print!("{text}");
-    }
-    if let Some(dir) = &args.save {
-        let saved = Saved {
-            provenance,
-            rounds: args.rounds,
-            runs: &runs,
-        };
-        let json = serde_json::to_string_pretty(&saved).map_err(|e| e.to_string())?;
-        std::fs::write(dir.join("reverb.json"), json + "\n").map_err(|e| e.to_string())?;
-        std::fs::write(dir.join("reverb.txt"), text).map_err(|e| e.to_string())?;
-    }
-    Ok(())
+    let saved = Saved {
+        provenance,
+        rounds: args.rounds,
+        runs: &runs,
+    };
+    let printed = serde_json::json!({ "runs": &runs });
+    provenance::emit(
+        "reverb",
+        &printed,
+        &saved,
+        &text,
+        args.json,
+        args.save.as_deref(),
+    )
 }
 
 fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
