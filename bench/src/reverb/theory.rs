@@ -112,7 +112,7 @@ impl BoxWalls {
             (-n..=n)
                 .map(|m| {
                     let x = m as f64 * size[a] + if m % 2 == 0 { s[a] } else { size[a] - s[a] };
-                    let (first, second) = ((m.unsigned_abs() + 1) / 2, m.unsigned_abs() / 2);
+                    let (first, second) = (m.unsigned_abs().div_ceil(2), m.unsigned_abs() / 2);
                     // m > 0 meets the high wall first, m < 0 the low one.
                     let (high, low) = if m > 0 {
                         (first, second)
