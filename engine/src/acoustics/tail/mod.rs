@@ -235,10 +235,11 @@ pub(crate) fn trace_tail(
     let start = Instant::now();
     let options = input.options;
     let volume = room_volume(scene);
-    let radius = options
-        .receiver_radius_m
-        .unwrap_or_else(|| receiver_radius(scene, volume, options.rays, input.speed_of_sound));
-    let walk = Walk::new(scene, source, listeners, input, radius);
+    let free_path = mean_free_path(scene, volume);
+    let radius = options.receiver_radius_m.unwrap_or_else(|| {
+        receiver_radius(scene, volume, free_path, options.rays, input.speed_of_sound)
+    });
+    let walk = Walk::new(scene, source, listeners, input, radius, free_path);
     let rays = options.rays as usize;
     let per_chunk = rays.div_ceil(CHUNKS);
     let chunks: Vec<walk::Tally> = (0..CHUNKS)
@@ -316,19 +317,30 @@ fn room_volume(scene: &AcousticScene) -> f64 {
 /// the decay curve is smooth well before it is integrated.
 const CROSSINGS_PER_BIN: f64 = 2.0;
 
+/// The mean free path of a diffuse field, `4V/S`, m (the scene's size for
+/// a scene without area).
+fn mean_free_path(scene: &AcousticScene, volume: f64) -> f64 {
+    let (area, _) = scene.surfaces().area_and_volume();
+    if area > 0.0 {
+        4.0 * volume / area
+    } else {
+        scene.surfaces().scale()
+    }
+}
+
 /// The sphere radius at which `rays` rays spread through `volume` cross it
 /// [`CROSSINGS_PER_BIN`] times per bin (`N c π r² Δt / V`), at most a
-/// quarter of the mean free path `4V/S` so it stays small beside the room.
-fn receiver_radius(scene: &AcousticScene, volume: f64, rays: u32, speed: f64) -> f64 {
-    let (area, _) = scene.surfaces().area_and_volume();
+/// quarter of the mean free path so it stays small beside the room.
+fn receiver_radius(
+    scene: &AcousticScene,
+    volume: f64,
+    free_path: f64,
+    rays: u32,
+    speed: f64,
+) -> f64 {
     let wanted = (CROSSINGS_PER_BIN * volume
         / (f64::from(rays) * speed * std::f64::consts::PI * BIN_S))
         .sqrt();
-    let free_path = if area > 0.0 {
-        4.0 * volume / area
-    } else {
-        wanted
-    };
     wanted
         .min(0.25 * free_path)
         .max(1e-6 * scene.surfaces().scale())

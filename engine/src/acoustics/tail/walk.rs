@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 use std::ops::Range;
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -20,6 +20,14 @@ type Energy = [f64; BAND_COUNT];
 
 /// A ray stops this far below its starting energy in every band (−60 dB).
 const STOP_FRACTION: f64 = 1e-6;
+/// Diffuse reflections up to this order always rain; later ones rain by
+/// roulette (see [`Walk::rain_chance`]).
+const ALWAYS_RAIN_ORDER: u32 = 2;
+/// Rain samples wanted per listener and histogram bin: later hits are
+/// many times more (every live ray hits a surface every mean free path),
+/// so most would only refine bins already well sampled.
+const RAIN_PER_BIN: f64 = 64.0;
+
 /// The most surface hits one ray follows: a ray caught between two close
 /// parallel planes must not run for ever.
 const MAX_HITS: u32 = 1 << 16;
@@ -83,6 +91,14 @@ pub(super) struct Walk<'a> {
     listeners: &'a [DVec3],
     radius: f64,
     sphere_volume: f64,
+    /// Rays in all, and the turn of their starting lattice.
+    rays: usize,
+    rotation: DQuat,
+    /// The chance that a diffuse reflection past [`ALWAYS_RAIN_ORDER`]
+    /// sends its shadow rays, its energy then divided by it (unbiased):
+    /// [`RAIN_PER_BIN`] over the hits all rays make in one bin,
+    /// `rays · c Δt / (4V/S)`, at most 1.
+    rain_chance: f64,
     exact_order: u32,
     active: [bool; BAND_COUNT],
     /// Each ray's starting energy per active band.
@@ -101,6 +117,7 @@ impl<'a> Walk<'a> {
         listeners: &'a [DVec3],
         input: &TailInput,
         radius: f64,
+        free_path: f64,
     ) -> Self {
         let share = 4.0 * PI / f64::from(input.options.rays);
         Self {
@@ -109,6 +126,15 @@ impl<'a> Walk<'a> {
             listeners,
             radius,
             sphere_volume: 4.0 / 3.0 * PI * radius.powi(3),
+            rays: input.options.rays as usize,
+            rotation: {
+                let mut rng = ChaCha8Rng::seed_from_u64(input.options.seed);
+                rng.set_stream(u64::MAX);
+                uniform_rotation(&mut rng)
+            },
+            rain_chance: (RAIN_PER_BIN * free_path
+                / (f64::from(input.options.rays) * input.speed_of_sound * BIN_S))
+                .min(1.0),
             exact_order: input.exact_order,
             active: input.active_bands,
             start: input.active_bands.map(|a| if a { share } else { 0.0 }),
@@ -128,14 +154,29 @@ impl<'a> Walk<'a> {
             }
             let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
             rng.set_stream(ray as u64);
-            self.ray(&mut rng, &mut tally);
+            self.ray(self.direction(ray), &mut rng, &mut tally);
         }
         Ok(tally)
     }
 
-    fn ray(&self, rng: &mut ChaCha8Rng, tally: &mut Tally) {
+    /// The starting direction of ray `ray`: point `ray` of a spherical
+    /// Fibonacci lattice of all the rays, turned by the seed's rotation.
+    /// Stratified, so every solid angle gets its share of rays: the late
+    /// decay of a room that barely scatters is carried by a few direction
+    /// families (grazing between bare walls), and independent directions
+    /// over- or under-sample them from seed to seed. The random rotation
+    /// keeps the estimate unbiased.
+    fn direction(&self, ray: usize) -> DVec3 {
+        let i = ray as f64 + 0.5;
+        let z = 1.0 - 2.0 * i / self.rays as f64;
+        let phi = PI * (3.0 - 5f64.sqrt()) * ray as f64;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        self.rotation * DVec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+
+    fn ray(&self, start: DVec3, rng: &mut ChaCha8Rng, tally: &mut Tally) {
         let mut origin = self.source;
-        let mut dir = uniform_direction(rng);
+        let mut dir = start;
         let mut energy = self.start;
         let stop = STOP_FRACTION * self.start.iter().fold(0.0, |m: f64, &e| m.max(e));
         let mut travelled = 0.0;
@@ -169,13 +210,19 @@ impl<'a> Walk<'a> {
                 -normal
             };
             let surface = self.surface(hit.material);
-            if surface.scattered.iter().any(|&s| s > 0.0) {
+            let chance = if order <= ALWAYS_RAIN_ORDER {
+                1.0
+            } else {
+                self.rain_chance
+            };
+            let scatters = surface.scattered.iter().any(|&s| s > 0.0);
+            if scatters && (chance >= 1.0 || rng.random::<f64>() < chance) {
                 let mut diffuse = energy;
                 for (d, (r, s)) in diffuse
                     .iter_mut()
                     .zip(surface.reflected.iter().zip(&surface.scattered))
                 {
-                    *d *= r * s;
+                    *d *= r * s / chance;
                 }
                 self.rain(
                     point + facing * self.offset,
@@ -317,12 +364,17 @@ impl<'a> Walk<'a> {
     }
 }
 
-/// A direction uniform over the sphere.
-fn uniform_direction(rng: &mut ChaCha8Rng) -> DVec3 {
-    let z = 1.0 - 2.0 * rng.random::<f64>();
-    let phi = 2.0 * PI * rng.random::<f64>();
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    DVec3::new(r * phi.cos(), r * phi.sin(), z)
+/// A rotation uniform over all rotations (Shoemake 1992).
+fn uniform_rotation(rng: &mut ChaCha8Rng) -> DQuat {
+    let (u1, u2, u3): (f64, f64, f64) = (rng.random(), rng.random(), rng.random());
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    DQuat::from_xyzw(
+        a * (2.0 * PI * u2).sin(),
+        a * (2.0 * PI * u2).cos(),
+        b * (2.0 * PI * u3).sin(),
+        b * (2.0 * PI * u3).cos(),
+    )
+    .normalize()
 }
 
 /// A direction in the hemisphere around `normal`, with density
