@@ -7,7 +7,7 @@
 
 mod compare;
 mod plot;
-mod pyroom;
+pub(crate) mod pyroom;
 mod references;
 mod row;
 pub(crate) mod scenes;

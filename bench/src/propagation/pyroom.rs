@@ -40,9 +40,10 @@ fn peers_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("peers")
 }
 
-/// Runs the setup script, then all jobs in one Python process. An error
-/// says why the peer can't run; the caller goes on without it.
-pub fn run(jobs: &[Job]) -> Result<Vec<Outcome>, String> {
+/// Runs the setup script, then `script` (in `bench/peers`) with `job` on
+/// its stdin, and reads its JSON answer. An error says why the peer can't
+/// run; the caller goes on without it.
+pub(crate) fn run_script(script: &str, job: &Value) -> Result<Value, String> {
     let dir = peers_dir();
     let setup = Command::new("bash")
         .arg(dir.join("setup.sh"))
@@ -56,6 +57,31 @@ pub fn run(jobs: &[Job]) -> Result<Vec<Outcome>, String> {
     if python.is_empty() {
         return Err("setup.sh printed no python path".into());
     }
+    let job = serde_json::to_vec(job).map_err(|e| e.to_string())?;
+    let mut child = Command::new(&python)
+        .arg(dir.join(script))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .map_err(|e| format!("could not start {python}: {e}"))?;
+    child
+        .stdin
+        .take()
+        .expect("piped stdin")
+        .write_all(&job)
+        .map_err(|e| format!("writing the job: {e}"))?;
+    let out = child
+        .wait_with_output()
+        .map_err(|e| format!("waiting for {script}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("{script} failed ({})", out.status));
+    }
+    serde_json::from_slice(&out.stdout).map_err(|e| format!("{script} output: {e}"))
+}
+
+/// All jobs in one Python process.
+pub fn run(jobs: &[Job]) -> Result<Vec<Outcome>, String> {
     let rooms: Vec<Value> = jobs
         .iter()
         .map(|j| {
@@ -71,28 +97,7 @@ pub fn run(jobs: &[Job]) -> Result<Vec<Outcome>, String> {
             })
         })
         .collect();
-    let job = serde_json::to_vec(&json!({ "rooms": rooms })).map_err(|e| e.to_string())?;
-    let mut child = Command::new(&python)
-        .arg(dir.join("pyroom_ism.py"))
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .map_err(|e| format!("could not start {python}: {e}"))?;
-    child
-        .stdin
-        .take()
-        .expect("piped stdin")
-        .write_all(&job)
-        .map_err(|e| format!("writing the job: {e}"))?;
-    let out = child
-        .wait_with_output()
-        .map_err(|e| format!("waiting for pyroom_ism.py: {e}"))?;
-    if !out.status.success() {
-        return Err(format!("pyroom_ism.py failed ({})", out.status));
-    }
-    let result: Value =
-        serde_json::from_slice(&out.stdout).map_err(|e| format!("pyroom_ism.py output: {e}"))?;
+    let result = run_script("pyroom_ism.py", &json!({ "rooms": rooms }))?;
     let rooms = result["rooms"]
         .as_array()
         .ok_or("pyroom_ism.py output has no rooms")?;

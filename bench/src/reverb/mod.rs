@@ -4,6 +4,7 @@
 //! Sabine's and Eyring's diffuse-field decay times, differences in
 //! just-noticeable differences, and the time each part took.
 //!
+//! pyroomacoustics' hybrid runs beside it on box rooms (`reverb::pyroom`).
 //! Box rooms run twice: with their materials (against Sabine and Eyring)
 //! and with no scattering, the room the image sources answer exactly.
 //! Air absorption is off everywhere, so the formulas and the image sources
@@ -11,6 +12,8 @@
 //! cells (N = 8): conservative cells at order 3 take seconds to minutes
 //! there (see the frustum-tracing issue).
 
+mod plot;
+mod pyroom;
 mod theory;
 
 use std::path::PathBuf;
@@ -18,7 +21,7 @@ use std::path::PathBuf;
 use clap::Parser;
 use frusta_engine::acoustics::signal::RoomParameters;
 use frusta_engine::acoustics::{
-    simulate, AcousticScene, CellAssignment, SimulationOptions, Tail, TailOptions,
+    simulate, AcousticScene, CellAssignment, Response, SimulationOptions, Tail, TailOptions,
 };
 use frusta_engine::scene::{BAND_COUNT, OCTAVE_BANDS_HZ};
 use serde::Serialize;
@@ -51,8 +54,16 @@ pub struct Args {
     /// Timed runs per scene; the median is reported.
     #[arg(long, default_value_t = 3)]
     rounds: usize,
+    /// Skip the pyroomacoustics peer.
+    #[arg(long)]
+    no_peer: bool,
     #[arg(long)]
     json: bool,
+    /// A PNG of the first box room without scattering: the impulse
+    /// responses, and energy decay curves per band beside
+    /// pyroomacoustics' and the exact image sources'.
+    #[arg(long)]
+    plot: Option<PathBuf>,
     /// Directory to write reverb.txt and reverb.json to.
     #[arg(long)]
     save: Option<PathBuf>,
@@ -95,6 +106,8 @@ struct Band {
     frusta: Parameters,
     /// The exact image-source answer (box rooms only).
     image_sources: Option<Parameters>,
+    /// pyroomacoustics' hybrid (box rooms only).
+    pyroomacoustics: Option<Parameters>,
     sabine_s: f64,
     eyring_s: f64,
     /// Against the image sources where there are some, else decay times
@@ -116,7 +129,14 @@ struct Run {
     tail_ms: f64,
     total_ms: f64,
     threads: usize,
+    /// pyroomacoustics' `compute_rir` (image sources, ray tracing,
+    /// synthesis), one run, and its threads.
+    pyroomacoustics_ms: Option<f64>,
+    pyroomacoustics_threads: Option<usize>,
+    pyroomacoustics_version: Option<String>,
     bands: Vec<Band>,
+    #[serde(skip)]
+    curves: plot::Curves,
 }
 
 #[derive(Serialize)]
@@ -142,6 +162,26 @@ fn jnd(frusta: Option<f64>, reference: Option<f64>, relative: bool, step: f64) -
 
 /// Runs `name` as it is, or with every material's scattering set to zero
 /// (`specular`): the rooms the exact image sources answer.
+/// Band `band` of a response's echogram: its paths, then its tail.
+fn echogram(r: &Response, band: usize) -> Vec<(f64, f64)> {
+    let Some(i) = r
+        .bands_hz
+        .iter()
+        .position(|&hz| hz == OCTAVE_BANDS_HZ[band])
+    else {
+        return Vec::new();
+    };
+    let mut out: Vec<(f64, f64)> = r
+        .paths
+        .iter()
+        .map(|p| (p.delay_s, f64::from(p.pressure_gain[i]).powi(2)))
+        .collect();
+    if let Some(tail) = &r.late_energy {
+        out.extend(tail.echogram(band));
+    }
+    out
+}
+
 fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, String> {
     let mut bench = scenes::load(name, false)?;
     if specular {
@@ -182,9 +222,25 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
     let speed = r.speed_of_sound_m_s;
     let volume = r.stats.tail.as_ref().map_or(0.0, |t| t.volume_m3);
     let (sabine, eyring) = theory::diffuse_field(&bench.scene, volume, speed);
-    let exact = BoxWalls::of(&bench.scene)
+    let walls = BoxWalls::of(&bench.scene);
+    let exact = walls
+        .as_ref()
         .filter(|_| specular)
         .map(|walls| walls.image_sources(bench.source, bench.listener, speed, args.length));
+    let peer = walls.as_ref().filter(|_| !args.no_peer).and_then(|walls| {
+        let job = pyroom::Job {
+            walls,
+            source: bench.source,
+            listener: bench.listener,
+            order: args.order,
+            rays: args.rays,
+            length_s: args.length,
+            speed,
+        };
+        pyroom::run(&job)
+            .map_err(|e| eprintln!("warning: pyroomacoustics on {name}: {e}"))
+            .ok()
+    });
     let bands = r
         .parameters
         .iter()
@@ -194,7 +250,7 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
                 .position(|&hz| hz == b.band_hz)
                 .unwrap_or(0);
             let p = &b.parameters;
-            let reference = exact.as_ref().map(|e| &e[band]);
+            let reference = exact.as_ref().map(|e| &e[band].0);
             let decay = |f: Option<f64>, e: Option<f64>| match reference {
                 Some(_) => jnd(f, e, true, JND_DECAY),
                 None => jnd(f, Some(eyring[band]), true, JND_DECAY),
@@ -203,6 +259,7 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
                 band_hz: b.band_hz,
                 frusta: p.into(),
                 image_sources: reference.map(Parameters::from),
+                pyroomacoustics: peer.as_ref().map(|p| (&p.parameters[band]).into()),
                 sabine_s: sabine[band],
                 eyring_s: eyring[band],
                 jnd: Jnd {
@@ -237,7 +294,17 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
         tail_ms: median(timings.iter().map(|t| t.1).collect()),
         total_ms: median(timings.iter().map(|t| t.2).collect()),
         threads: r.stats.threads,
+        pyroomacoustics_ms: peer.as_ref().map(|p| p.ms),
+        pyroomacoustics_threads: peer.as_ref().map(|p| p.threads),
+        pyroomacoustics_version: peer.as_ref().map(|p| p.version.clone()),
         bands,
+        curves: plot::Curves {
+            frusta_ir: r.impulse_response.channels[0].clone(),
+            frusta: (0..BAND_COUNT).map(|b| echogram(&r, b)).collect(),
+            peer_ir: peer.as_ref().map(|p| p.rir.clone()),
+            peer: peer.map(|p| p.echograms),
+            exact: exact.map(|e| e.into_iter().map(|(_, echogram)| echogram).collect()),
+        },
     })
 }
 
@@ -265,6 +332,13 @@ pub fn run(args: Args) -> Result<(), String> {
         }
     }
     provenance.finish();
+    if let Some(path) = &args.plot {
+        let run = runs
+            .iter()
+            .find(|r| r.curves.exact.is_some())
+            .ok_or("--plot needs a box room (e.g. --scene shoebox)")?;
+        plot::decay(&run.scene, &run.curves, path)?;
+    }
     let text = table(&runs, &provenance, &args);
     let saved = Saved {
         provenance,
@@ -306,6 +380,16 @@ fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
             run.total_ms,
             run.threads
         );
+        if let (Some(ms), Some(threads), Some(version)) = (
+            run.pyroomacoustics_ms,
+            run.pyroomacoustics_threads,
+            &run.pyroomacoustics_version,
+        ) {
+            out += &format!(
+                "pyroomacoustics {version} hybrid (same order, rays and length; its ray-tracing \
+                 defaults): {ms:.1} ms ({threads} thread)\n"
+            );
+        }
         let mut rows = vec![[
             "band Hz",
             "EDT s",
@@ -318,6 +402,11 @@ fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
             "exact T30",
             "exact C80",
             "exact D50",
+            "pra EDT",
+            "pra T20",
+            "pra T30",
+            "pra C80",
+            "pra D50",
             "Eyring s",
             "Sabine s",
             "JND EDT",
@@ -330,6 +419,7 @@ fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
         .to_vec()];
         for b in &run.bands {
             let e = b.image_sources.as_ref();
+            let pra = b.pyroomacoustics.as_ref();
             rows.push(vec![
                 format!("{}", b.band_hz),
                 f(b.frusta.edt_s, 2),
@@ -342,6 +432,11 @@ fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
                 f(e.and_then(|e| e.t30_s), 2),
                 f(e.and_then(|e| e.c80_db), 2),
                 f(e.and_then(|e| e.d50), 3),
+                f(pra.and_then(|e| e.edt_s), 2),
+                f(pra.and_then(|e| e.t20_s), 2),
+                f(pra.and_then(|e| e.t30_s), 2),
+                f(pra.and_then(|e| e.c80_db), 2),
+                f(pra.and_then(|e| e.d50), 3),
                 format!("{:.2}", b.eyring_s),
                 format!("{:.2}", b.sabine_s),
                 f(b.jnd.edt, 1),

@@ -39,6 +39,8 @@ pub struct BoxWalls {
     pub max: DVec3,
     /// `absorption[axis][0 low | 1 high][band]`.
     pub absorption: [[[f64; BAND_COUNT]; 2]; 3],
+    /// The same walls' scattering.
+    pub scattering: [[[f64; BAND_COUNT]; 2]; 3],
 }
 
 impl BoxWalls {
@@ -55,6 +57,7 @@ impl BoxWalls {
             }
         }
         let mut absorption = [[[f64::NAN; BAND_COUNT]; 2]; 3];
+        let mut scattering = [[[0.0; BAND_COUNT]; 2]; 3];
         for o in &scene.objects {
             for t in 0..o.mesh.triangle_count() {
                 let c = o
@@ -72,8 +75,9 @@ impl BoxWalls {
                         None
                     }
                 })?;
-                let m = &o.materials[t];
-                absorption[axis][side] = scene.materials[*m as usize].absorption.map(f64::from);
+                let m = &scene.materials[o.materials[t] as usize];
+                absorption[axis][side] = m.absorption.map(f64::from);
+                scattering[axis][side] = m.scattering.map(f64::from);
             }
         }
         absorption
@@ -84,10 +88,12 @@ impl BoxWalls {
                 min: lo,
                 max: hi,
                 absorption,
+                scattering,
             })
     }
 
-    /// ISO 3382 parameters per band of the exact image-source echogram
+    /// ISO 3382 parameters per band of the exact image-source echogram, and
+    /// the echogram
     /// from `source` to `listener` up to `until_s`, binned at 0.1 ms:
     /// image `m` on an axis of length `L` lies at `m L + (x or L − x)`
     /// after `⌈|m|/2⌉` reflections off one wall and `⌊|m|/2⌋` off the
@@ -98,7 +104,7 @@ impl BoxWalls {
         listener: DVec3,
         speed: f64,
         until_s: f64,
-    ) -> Vec<RoomParameters> {
+    ) -> Vec<(RoomParameters, Vec<(f64, f64)>)> {
         let reach = until_s * speed;
         let size = self.max - self.min;
         let s = source - self.min;
@@ -157,7 +163,8 @@ impl BoxWalls {
                     .filter(|(_, e)| e[b] > 0.0)
                     .map(|(k, e)| ((k as f64 + 0.5) * step, e[b]))
                     .collect();
-                RoomParameters::from_energy(&echogram).unwrap_or_default()
+                let parameters = RoomParameters::from_energy(&echogram).unwrap_or_default();
+                (parameters, echogram)
             })
             .collect()
     }
