@@ -4,11 +4,15 @@
 //! Schroeder integration and line fits; and Eyring's formula for rooms
 //! whose walls scatter everything.
 
+use std::time::{Duration, Instant};
+
+use frusta_engine::acoustics::signal::Channels;
 use frusta_engine::acoustics::{
-    simulate, AcousticScene, Response, SimulationOptions, Tail, TailOptions,
+    simulate, simulate_until, AcousticScene, Cancel, Response, SimulationOptions, Tail, TailOptions,
 };
 use frusta_engine::scene::generate::BoxRoom;
 use frusta_engine::scene::{Material, Scene, BAND_COUNT};
+use frusta_engine::Error;
 use glam::Vec3;
 
 const ROOM: [f64; 3] = [10.0, 6.0, 3.0];
@@ -322,4 +326,109 @@ fn lossless_diffuse_room_holds_its_energy() {
         .sum();
     let want = 4.0 * std::f64::consts::PI * r.speed_of_sound_m_s * (t2 - t1) / volume;
     within("lossless energy", got, want, 0.03);
+}
+
+#[test]
+fn binaural_tails_are_decorrelated_and_as_loud_as_mono() {
+    let scene = shoebox(0.2, 0.5);
+    let run = |channels| {
+        let options = SimulationOptions {
+            max_order: 2,
+            air: None,
+            channels,
+            ..Default::default()
+        };
+        let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
+        simulate(&scene, &[point(SOURCE)], &[point(LISTENER)], &options)
+            .unwrap()
+            .remove(0)
+            .impulse_response
+    };
+    let mono = run(Channels::Mono);
+    let binaural = run(Channels::Binaural);
+    // After 0.2 s only the tail sounds.
+    let late =
+        |signal: &[f32]| -> Vec<f64> { signal[9600..].iter().map(|&v| f64::from(v)).collect() };
+    let energy = |s: &[f64]| s.iter().map(|v| v * v).sum::<f64>();
+    let (left, right) = (late(&binaural.channels[0]), late(&binaural.channels[1]));
+    let m = energy(&late(&mono.channels[0]));
+    // Each ear draws its own random signs, whose cross terms within a
+    // band filter's ringing make the energies agree statistically only.
+    within("left ear's late energy", energy(&left), m, 0.12);
+    within("right ear's late energy", energy(&right), m, 0.12);
+    let n = left.len().min(right.len());
+    let cross: f64 = left[..n].iter().zip(&right[..n]).map(|(a, b)| a * b).sum();
+    let correlation = cross / (energy(&left[..n]) * energy(&right[..n])).sqrt();
+    assert!(
+        correlation.abs() < 0.1,
+        "interaural correlation {correlation}"
+    );
+}
+
+#[test]
+fn the_tail_stops_at_the_deadline_and_when_cancelled() {
+    let scene = shoebox(0.05, 0.2);
+    let options = SimulationOptions {
+        max_order: 0,
+        bands_hz: vec![1000.0],
+        tail: Tail::Stochastic(TailOptions {
+            rays: frusta_engine::acoustics::tail::MAX_RAYS,
+            max_length_s: 10.0,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
+    let (s, l) = (point(SOURCE), point(LISTENER));
+    // The whole tail takes tens of seconds; the deadline cuts it short.
+    let start = Instant::now();
+    let deadline = start + Duration::from_millis(200);
+    let e = simulate_until(&scene, &[s], &[l], &options, deadline, None).unwrap_err();
+    assert!(matches!(e, Error::DeadlineExceeded { .. }), "{e}");
+    assert!(
+        start.elapsed() < Duration::from_secs(3),
+        "{:?}",
+        start.elapsed()
+    );
+    let cancel = Cancel::new();
+    cancel.cancel();
+    let far = Instant::now() + Duration::from_secs(600);
+    let e = simulate_until(&scene, &[s], &[l], &options, far, Some(&cancel)).unwrap_err();
+    assert!(matches!(e, Error::Cancelled), "{e}");
+}
+
+/// Diffuse rain is sent only where a shadow ray finds the listener
+/// visible: two closed boxes side by side, the source in one and the
+/// listener in the other, hear nothing of each other.
+#[test]
+fn walls_block_the_rain() {
+    let mut mesh = BoxRoom::new(Vec3::ZERO, Vec3::new(5.0, 6.0, 3.0))
+        .generate()
+        .unwrap();
+    mesh.append(
+        BoxRoom::new(Vec3::new(5.2, 0.0, 0.0), Vec3::new(10.2, 6.0, 3.0))
+            .generate()
+            .unwrap(),
+    );
+    let mut walls = Material::uniform("walls", 0.2).unwrap();
+    walls.scattering = [0.5; BAND_COUNT];
+    let scene = AcousticScene::new(&Scene::single_object("rooms", mesh, walls).unwrap());
+    let options = SimulationOptions {
+        max_order: 1,
+        bands_hz: vec![1000.0],
+        air: None,
+        ..Default::default()
+    };
+    let r = simulate(
+        &scene,
+        &[Vec3::new(2.0, 3.0, 1.5)],
+        &[Vec3::new(7.5, 3.0, 1.5)],
+        &options,
+    )
+    .unwrap()
+    .remove(0);
+    let tail = r.late_energy.expect("a tail");
+    assert!(r.stats.tail.unwrap().shadow_rays > 0);
+    assert_eq!(tail.energy(BAND), 0.0);
+    assert!(r.paths.is_empty());
 }
