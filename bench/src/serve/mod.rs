@@ -11,7 +11,7 @@ pub(crate) mod stream;
 use std::time::Duration;
 
 use frusta_client::{Client, Config};
-use frusta_engine::acoustics::{CellAssignment, SimulationOptions};
+use frusta_engine::acoustics::{CellAssignment, SimulationOptions, Tail};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
@@ -63,6 +63,10 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', default_value = "sampled", value_parser = ["sampled", "conservative"])]
     pub stream_cells: Vec<String>,
     /// Print JSON lines (one object per phase) instead of the table.
+    /// Simulate without the late reverberation (`"tail": "none"`), as the
+    /// rows before the tail existed did.
+    #[arg(long)]
+    pub no_tail: bool,
     #[arg(long)]
     pub json: bool,
     /// Don't run anything: print the table of JSON lines saved from an
@@ -78,6 +82,10 @@ pub struct Options {
     pub sampling: u32,
     pub cells: String,
     pub sample_rate: u32,
+    /// Whether the late reverberation (the default tail) is on; rows saved
+    /// before it existed had none.
+    #[serde(default)]
+    pub tail: bool,
 }
 
 impl Options {
@@ -91,6 +99,11 @@ impl Options {
                 _ => CellAssignment::Sampled,
             },
             sample_rate: self.sample_rate,
+            tail: if self.tail {
+                Tail::default()
+            } else {
+                Tail::None
+            },
             ..SimulationOptions::default()
         }
     }
@@ -258,6 +271,7 @@ fn phases(args: &Args, base: &str, in_process: bool) -> Result<Vec<Row>, String>
             sampling: args.sampling,
             cells: args.cells.clone(),
             sample_rate: args.sample_rate,
+            tail: !args.no_tail,
         };
         eprintln!(
             "[{}] {} clients x {ir_seconds} s of impulse responses...",
@@ -280,6 +294,7 @@ fn phases(args: &Args, base: &str, in_process: bool) -> Result<Vec<Row>, String>
                 sampling: args.stream_sampling,
                 cells: cells.clone(),
                 sample_rate: args.sample_rate,
+                tail: !args.no_tail,
             };
             for moving in ["listener", "source"] {
                 eprintln!(
@@ -354,6 +369,7 @@ fn table(rows: &[Row]) -> String {
         "cells",
         "order",
         "N",
+        "tail",
         "clients",
         "s",
         "requests",
@@ -378,6 +394,7 @@ fn table(rows: &[Row]) -> String {
             r.options.cells.clone(),
             r.options.max_order.to_string(),
             r.options.sampling.to_string(),
+            if r.options.tail { "yes" } else { "no" }.to_string(),
             r.clients.to_string(),
             format!("{:.1}", r.seconds),
             r.requests.to_string(),
