@@ -77,16 +77,35 @@ impl Tally {
     }
 }
 
-/// A surface's energy fractions per band at one hit.
+/// A material's energy fractions per band, as the walk reads them at
+/// every hit (converted once per trace, not per hit).
 struct Surface {
     reflected: Energy,
     scattered: Energy,
     transmitted: Energy,
 }
 
+impl Surface {
+    /// For a material id the table lacks: a perfect specular reflector.
+    const REFLECTING: Surface = Surface {
+        reflected: [1.0; BAND_COUNT],
+        scattered: [0.0; BAND_COUNT],
+        transmitted: [0.0; BAND_COUNT],
+    };
+
+    fn of(m: &crate::scene::Material) -> Self {
+        Self {
+            reflected: m.absorption.map(|a| 1.0 - f64::from(a)),
+            scattered: m.scattering.map(f64::from),
+            transmitted: m.transmission.map(f64::from),
+        }
+    }
+}
+
 /// Everything the rays of one source share.
 pub(super) struct Walk<'a> {
     scene: &'a AcousticScene,
+    surfaces: Vec<Surface>,
     source: DVec3,
     listeners: &'a [DVec3],
     radius: f64,
@@ -122,6 +141,7 @@ impl<'a> Walk<'a> {
         let share = 4.0 * PI / f64::from(input.options.rays);
         Self {
             scene,
+            surfaces: scene.materials().iter().map(Surface::of).collect(),
             source,
             listeners,
             radius,
@@ -290,19 +310,10 @@ impl<'a> Walk<'a> {
         }
     }
 
-    fn surface(&self, material: u16) -> Surface {
-        match self.scene.materials().get(material as usize) {
-            Some(m) => Surface {
-                reflected: m.absorption.map(|a| 1.0 - f64::from(a)),
-                scattered: m.scattering.map(f64::from),
-                transmitted: m.transmission.map(f64::from),
-            },
-            None => Surface {
-                reflected: [1.0; BAND_COUNT],
-                scattered: [0.0; BAND_COUNT],
-                transmitted: [0.0; BAND_COUNT],
-            },
-        }
+    fn surface(&self, material: u16) -> &Surface {
+        self.surfaces
+            .get(material as usize)
+            .unwrap_or(&Surface::REFLECTING)
     }
 
     /// The track-length estimate of the leg `origin + dir · [0, leg]`,
