@@ -229,16 +229,20 @@ impl MeshBvh {
             best = Some((slot, h));
             Flow::Continue(())
         });
-        best.map(|(slot, h)| {
-            let [a, b, c] = self.triangles[slot as usize];
-            MeshHit {
-                t: h.t,
-                triangle: self.prim_ids[slot as usize],
-                u: h.u,
-                v: h.v,
-                normal: Vec3::from((b - a).cross(c - a).normalize_or_zero()),
-            }
-        })
+        best.map(|(slot, h)| self.mesh_hit(slot, h))
+    }
+
+    /// The hit `h` on the triangle in leaf slot `slot`.
+    #[inline]
+    pub(crate) fn mesh_hit(&self, slot: u32, h: TriangleHit) -> MeshHit {
+        let [a, b, c] = self.triangles[slot as usize];
+        MeshHit {
+            t: h.t,
+            triangle: self.prim_ids[slot as usize],
+            u: h.u,
+            v: h.v,
+            normal: Vec3::from((b - a).cross(c - a).normalize_or_zero()),
+        }
     }
 
     /// Whether anything lies on the ray within its range (occlusion).

@@ -1,8 +1,11 @@
 //! Scene-level queries on the two-level world of [`crate::bvh::world`]:
 //! each is a visitor of its top-level walk that moves the query into an
-//! object's frame and walks the object's own tree.
+//! object's frame and walks the object's own tree; a [`RayPacket`] walks
+//! them once for many rays through one window.
 
+mod packet;
 mod ray;
 
 pub use crate::bvh::{ObjectStats, SceneBvh, SceneBvhStats};
+pub use packet::RayPacket;
 pub use ray::SceneHit;

@@ -29,7 +29,7 @@ pub struct SceneHit {
 /// The ray in an object's frame with range end `t_max`; rigid, so `t` is
 /// unchanged.
 #[inline]
-fn local(inst: &Instance, ray: &Ray, t_max: f32) -> Ray {
+pub(super) fn local(inst: &Instance, ray: &Ray, t_max: f32) -> Ray {
     if inst.is_identity() {
         return Ray { t_max, ..*ray };
     }
@@ -56,23 +56,26 @@ impl SceneBvh {
             }
             Flow::Continue(())
         });
-        best.map(|(object, hit)| {
-            let inst = &self.instances()[object as usize];
-            SceneHit {
-                t: hit.t,
-                object,
-                triangle: hit.triangle,
-                u: hit.u,
-                v: hit.v,
-                normal: inst.to_world().rotation * hit.normal,
-                material: inst
-                    .materials()
-                    .get(hit.triangle as usize)
-                    .copied()
-                    .unwrap_or(0),
-                point: ray.at(hit.t).into(),
-            }
-        })
+        best.map(|(object, hit)| self.scene_hit(ray, object, hit))
+    }
+
+    /// `hit`, found on `object` by `ray`, in world terms.
+    pub(super) fn scene_hit(&self, ray: &Ray, object: u32, hit: MeshHit) -> SceneHit {
+        let inst = &self.instances()[object as usize];
+        SceneHit {
+            t: hit.t,
+            object,
+            triangle: hit.triangle,
+            u: hit.u,
+            v: hit.v,
+            normal: inst.to_world().rotation * hit.normal,
+            material: inst
+                .materials()
+                .get(hit.triangle as usize)
+                .copied()
+                .unwrap_or(0),
+            point: ray.at(hit.t).into(),
+        }
     }
 
     /// Whether anything lies on the ray within its range (occlusion).

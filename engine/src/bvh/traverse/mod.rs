@@ -14,7 +14,9 @@
 //! Node tests are written per query kind, as in Embree's node intersectors,
 //! so each kind keeps its SIMD form: [`RayTest`] (the robust slab test),
 //! [`FrustumTest`] (half-spaces with a depth key) and [`OverlapTest`]
-//! (a box, for points, proximity and broad phases).
+//! (a box, for points, proximity and broad phases). Packets of rays
+//! through one window walk with [`WindowTest`], which hands each box the
+//! rectangle of rays that can meet it.
 
 mod binary;
 pub mod front;
@@ -23,6 +25,7 @@ mod overlap;
 pub mod pair;
 mod ray;
 mod wide;
+mod window;
 
 use std::ops::ControlFlow;
 
@@ -31,6 +34,7 @@ use glam::Vec4;
 pub use frustum::FrustumTest;
 pub use overlap::OverlapTest;
 pub use ray::RayTest;
+pub use window::{Projection, WindowRect, WindowTest, WindowVisitor};
 
 use super::wide::Node4;
 use crate::geometry::Aabb;
