@@ -8,10 +8,10 @@ use crate::bvh::wide::{Bvh4, Node4};
 /// Stack entries name an inner node by its index and a leaf by this bit
 /// with its node's index and slot, so leaves are visited in key order with
 /// the rest.
-const LEAF_REF: u32 = 1 << 31;
+pub(super) const LEAF_REF: u32 = 1 << 31;
 
 #[inline(always)]
-fn child_ref(n: &Node4, node: usize, slot: usize) -> u32 {
+pub(super) fn child_ref(n: &Node4, node: usize, slot: usize) -> u32 {
     if n.count[slot] != 0 {
         LEAF_REF | (node as u32) << 2 | slot as u32
     } else {

@@ -22,6 +22,7 @@ use std::mem::MaybeUninit;
 
 use glam::{DMat3, DVec3, Vec3A, Vec4};
 
+use super::wide::{child_ref, LEAF_REF};
 use super::{Flow, NodeTest, STACK_SIZE};
 use crate::bvh::wide::{Bvh4, Node4};
 use crate::geometry::{Aabb, RigidTransform};
@@ -217,10 +218,6 @@ impl WindowTest {
     }
 }
 
-/// Stack entries name an inner node by its index and a leaf by this bit
-/// with its node's index and slot, as in the ray walk.
-const LEAF_REF: u32 = 1 << 31;
-
 /// The top level's test: a box's key is its nearest depth.
 impl NodeTest for WindowTest {
     #[inline]
@@ -275,11 +272,7 @@ impl Bvh4 {
                 if p.rect.is_empty() {
                     continue;
                 }
-                let index = if n.count[slot] != 0 {
-                    LEAF_REF | (node as u32) << 2 | slot as u32
-                } else {
-                    n.child[slot]
-                };
+                let index = child_ref(n, node, slot);
                 kept[k] = (index, p);
                 k += 1;
             }
