@@ -299,6 +299,8 @@ fn options(order: u32, cells: CellAssignment, air: Option<AirConditions>) -> Sim
         cells,
         air,
         sample_rate: 8_000,
+        // The reference is specular.
+        diffraction_order: 0,
         ..Default::default()
     }
 }

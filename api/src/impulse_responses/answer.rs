@@ -28,7 +28,8 @@ pub struct PairResponse {
     /// The bands every per-band array follows, Hz.
     pub bands_hz: Vec<f32>,
     pub speed_of_sound_m_s: f64,
-    /// Validated specular paths, the direct sound (order 0) among them.
+    /// Validated paths, sorted by length: specular (the direct sound,
+    /// order 0, among them) and diffracted around edges.
     pub paths: Vec<PathOut>,
     /// ISO 3382-1 parameters per band.
     pub parameters: Vec<BandParametersOut>,
@@ -40,14 +41,17 @@ pub struct PairResponse {
     pub frames: usize,
 }
 
-/// One specular path from source to listener.
+/// One path from source to listener: specular, or diffracted around
+/// edges.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct PathOut {
-    /// Surfaces met: 0 for the direct sound.
+    /// Surfaces and edges met: 0 for the direct sound.
     pub order: usize,
     pub distance_m: f64,
     pub delay_s: f64,
-    /// The source mirrored in every surface of the path, `[x, y, z]`.
+    /// The source mirrored in every surface of the path, `[x, y, z]`; for
+    /// a diffracted path, the point it seems to come from (its length
+    /// away along its last leg).
     pub image_source: [f64; 3],
     pub surfaces: Vec<SurfaceOut>,
     /// Linear pressure amplitude per band, relative to the source level at 1 m.
@@ -61,7 +65,8 @@ pub struct SurfaceOut {
     /// Triangle index in the object's mesh.
     pub triangle: u32,
     pub material: String,
-    /// `reflection` or `transmission`.
+    /// `reflection`, `transmission` or `diffraction` (at an edge of the
+    /// triangle's face).
     pub event: String,
     /// Where the path meets the surface, `[x, y, z]`.
     pub point: [f64; 3],
@@ -101,6 +106,8 @@ pub struct StatsOut {
     /// Whether the source's frusta came from a stream's cache.
     pub beams_reused: bool,
     pub trace_ms: f64,
+    /// Time to find the diffracted paths of the source's listeners.
+    pub diffraction_ms: f64,
     /// The late reverberation's rays and time; null without a tail.
     pub tail: Option<TailStatsOut>,
     pub total_ms: f64,
@@ -158,6 +165,7 @@ impl From<&Response> for PairResponse {
                 paths: stats.paths,
                 beams_reused: stats.beams_reused,
                 trace_ms: stats.trace_ms,
+                diffraction_ms: stats.diffraction_ms,
                 tail: stats.tail.as_ref().map(|t| TailStatsOut {
                     rays: t.rays,
                     reflections: t.reflections,

@@ -5,6 +5,7 @@
 
 use std::borrow::Cow;
 
+use frusta_engine::acoustics::diffraction::MAX_DIFFRACTION_ORDER;
 use frusta_engine::acoustics::propagation::MAX_ORDER;
 use frusta_engine::acoustics::signal::impulse_response::MAX_SAMPLE_RATE;
 use frusta_engine::acoustics::signal::AirConditions;
@@ -184,6 +185,15 @@ impl ImpulseResponseRequest {
             ("channels", choice("Mono, or binaural (left and right ears)", &["mono", "binaural"])),
             ("listener_frame", listener_frame.into()),
             ("tail", tail_schema()),
+            (
+                "diffraction_order",
+                integer(
+                    "Most edges a diffracted path bends around (0: none; 2 costs far more in detailed scenes)",
+                    defaults.diffraction_order,
+                    0,
+                    MAX_DIFFRACTION_ORDER,
+                ),
+            ),
         ]
     }
 }

@@ -28,8 +28,8 @@ pub fn print(
 fn text(response: &PairResponse) {
     let s = &response.stats;
     println!(
-        "{} paths, {} frusta, traced in {:.2} ms ({:.2} ms in all, {} threads)",
-        s.paths, s.frusta, s.trace_ms, s.total_ms, s.threads
+        "{} paths, {} frusta, traced in {:.2} ms, diffraction {:.2} ms ({:.2} ms in all, {} threads)",
+        s.paths, s.frusta, s.trace_ms, s.diffraction_ms, s.total_ms, s.threads
     );
     if let Some(t) = &s.tail {
         println!(
@@ -42,8 +42,15 @@ fn text(response: &PairResponse) {
     for p in &response.paths {
         let gain = khz
             .and_then(|b| p.pressure_gain.get(b))
-            .map_or(f32::NAN, |g| 20.0 * g.log10());
-        let surfaces: Vec<&str> = p.surfaces.iter().map(|e| e.material.as_str()).collect();
+            .map_or(f32::NAN, |g| 20.0 * g.abs().log10());
+        let surfaces: Vec<String> = p
+            .surfaces
+            .iter()
+            .map(|e| match e.event.as_str() {
+                "diffraction" => format!("edge of {}", e.material),
+                _ => e.material.clone(),
+            })
+            .collect();
         println!(
             "{:>5}  {:>10.4}  {:>9.4}  {:>18.2}  {}",
             p.order,

@@ -53,6 +53,9 @@ pub struct SimulationArgs {
     /// Seed of the late reverberation.
     #[arg(long, default_value_t = 0)]
     tail_seed: u64,
+    /// Most edges a diffracted path bends around (0: none, at most 2).
+    #[arg(long, default_value_t = SimulationOptions::default().diffraction_order)]
+    diffraction_order: u32,
 }
 
 impl SimulationArgs {
@@ -84,6 +87,7 @@ impl SimulationArgs {
                     receiver_radius_m: None,
                 })
             },
+            diffraction_order: self.diffraction_order,
             ..defaults
         }
     }

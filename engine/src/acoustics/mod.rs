@@ -15,6 +15,7 @@
 //! - [`scene`]: [`AcousticScene`], what propagation reads of a scene;
 //! - [`propagation`]: paths with per-band gains, impulse responses and room
 //!   parameters for sources and listeners;
+//! - [`diffraction`]: paths around edges (UTD), for the early part;
 //! - [`tail`]: late reverberation by stochastic ray tracing (diffuse rain
 //!   and receiver spheres), counting nothing the exact paths hold;
 //! - [`signal`]: arrivals to impulse responses, ISO 3382-1 parameters, WAV
@@ -25,6 +26,7 @@ pub mod brute_force;
 mod cache;
 mod classify;
 mod cull;
+pub mod diffraction;
 
 pub mod frustum;
 mod merge;

@@ -7,6 +7,9 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
+use super::diffraction::{
+    diffracted_paths_until, DiffractedPath, DiffractionSearch, MAX_DIFFRACTION_ORDER,
+};
 use super::path::ValidPath;
 use super::signal::{
     self, AirConditions, Arrival, EnergyHistogram, ImpulseResponse, ImpulseResponseOptions,
@@ -51,6 +54,12 @@ pub struct SimulationOptions {
     /// The late reverberation after the exact paths up to `max_order`:
     /// `"none"` for the exact paths alone.
     pub tail: Tail,
+    /// Most edges a diffracted path bends around (UTD), 0 for none: 1
+    /// hears sources around a corner or through a door in a thin wall;
+    /// 2 also through a thick wall's doorway, at far more work in
+    /// detailed scenes (every pair of edges the source and the listener
+    /// see).
+    pub diffraction_order: u32,
 }
 
 impl Default for SimulationOptions {
@@ -69,6 +78,7 @@ impl Default for SimulationOptions {
             channels: signal::Channels::Mono,
             listener_frame: signal::ListenerFrame::default(),
             tail: Tail::default(),
+            diffraction_order: 1,
         }
     }
 }
@@ -139,6 +149,12 @@ impl SimulationOptions {
         if let Some(air) = self.air {
             air.validated()?;
         }
+        if self.diffraction_order > MAX_DIFFRACTION_ORDER {
+            return Err(Error::InvalidOption {
+                field: "diffraction_order".into(),
+                reason: format!("{} exceeds {MAX_DIFFRACTION_ORDER}", self.diffraction_order),
+            });
+        }
         self.tail_options()?;
         let mut active_bands = [false; BAND_COUNT];
         for b in self.band_indices()? {
@@ -203,6 +219,8 @@ pub struct SimulationStats {
     /// Time to find the paths: tracing (unless reused), proposing and
     /// validating.
     pub trace_ms: f64,
+    /// Time to find the diffracted paths of every listener of the source.
+    pub diffraction_ms: f64,
     /// The late reverberation's rays and time (shared by the source's
     /// listeners), when there is a tail.
     pub tail: Option<TailStats>,
@@ -349,15 +367,33 @@ fn simulate_with(
         } else {
             SurfaceShare::Reflected
         };
+        let diffraction_start = Instant::now();
+        let search = DiffractionSearch {
+            order: options.diffraction_order,
+            speed_of_sound: speed,
+            active_bands: trace_options.active_bands,
+        };
+        let diffracted: Vec<Vec<DiffractedPath>> = {
+            use rayon::prelude::*;
+            listener_points
+                .par_iter()
+                .map(|&l| diffracted_paths_until(scene.edge_scene(), source, l, &search, &deadline))
+                .collect::<Result<_>>()?
+        };
+        let diffraction_ms = diffraction_start.elapsed().as_secs_f64() * 1e3;
         for (l, paths) in found.paths.iter().enumerate() {
             deadline.check()?;
-            let arrivals: Vec<Arrival> = paths
+            let air = options.air.as_ref();
+            let listener = listener_points[l];
+            let mut arrivals: Vec<Arrival> = paths
                 .iter()
-                .map(|p| {
-                    let air = options.air.as_ref();
-                    arrival(scene, p, listener_points[l], speed, air, surface_share)
-                })
+                .map(|p| arrival(scene, p, listener, speed, air, surface_share))
                 .collect();
+            arrivals.extend(
+                diffracted[l]
+                    .iter()
+                    .map(|p| diffracted_arrival(p, listener, speed, air)),
+            );
             let histogram: Option<&EnergyHistogram> = tail.as_ref().map(|t| &t.histograms[l]);
             let impulse_response = signal::synthesize_with_tail(&arrivals, histogram, &ir_options)?;
             let parameters = signal::per_band_with_tail(&arrivals, histogram, &bands)?
@@ -367,11 +403,18 @@ fn simulate_with(
                     parameters,
                 })
                 .collect();
-            let sound_paths: Vec<SoundPath> = paths
+            let mut sound_paths: Vec<SoundPath> = paths
                 .iter()
                 .zip(&arrivals)
                 .map(|(p, a)| sound_path(scene, p, a, &bands, speed))
                 .collect();
+            sound_paths.extend(
+                diffracted[l]
+                    .iter()
+                    .zip(&arrivals[paths.len()..])
+                    .map(|(p, a)| diffracted_sound_path(scene, p, listener, a, &bands, speed)),
+            );
+            sound_paths.sort_by(|a, b| a.distance_m.total_cmp(&b.distance_m));
             out.push(Response {
                 source: s,
                 listener: l,
@@ -385,6 +428,7 @@ fn simulate_with(
                     paths: sound_paths.len(),
                     beams_reused,
                     trace_ms,
+                    diffraction_ms,
                     tail: tail.as_ref().map(|t| t.stats.clone()),
                     total_ms: start.elapsed().as_secs_f64() * 1e3,
                     threads: rayon::current_num_threads(),
@@ -462,26 +506,18 @@ fn sound_path(
         .vertices
         .iter()
         .map(|v| {
-            let material = scene.surfaces().group(v.event.group()).material as usize;
-            SurfaceEvent {
-                object: scene
-                    .object_names()
-                    .get(v.object as usize)
-                    .cloned()
-                    .unwrap_or_default(),
-                triangle: v.triangle,
-                material: scene
-                    .materials()
-                    .get(material)
-                    .map(|m| m.name.clone())
-                    .unwrap_or_default(),
-                event: if v.event.is_transmission() {
-                    "transmission"
-                } else {
-                    "reflection"
-                },
-                point: v.point.to_array(),
-            }
+            let event = if v.event.is_transmission() {
+                "transmission"
+            } else {
+                "reflection"
+            };
+            surface_event(
+                scene,
+                (v.object, v.triangle),
+                v.event.group(),
+                event,
+                v.point,
+            )
         })
         .collect();
     SoundPath {
@@ -489,6 +525,92 @@ fn sound_path(
         distance_m: p.length,
         delay_s: p.length / speed,
         image_source: p.image_source.to_array(),
+        surfaces,
+        pressure_gain: bands.iter().map(|&b| a.pressure_gain[b]).collect(),
+    }
+}
+
+/// What a path meets at one point: `(object, mesh-order triangle)` of
+/// plane group `group`, named as answers name them.
+fn surface_event(
+    scene: &AcousticScene,
+    (object, triangle): (u32, u32),
+    group: u32,
+    event: &'static str,
+    point: DVec3,
+) -> SurfaceEvent {
+    let material = scene.surfaces().group(group).material as usize;
+    SurfaceEvent {
+        object: scene
+            .object_names()
+            .get(object as usize)
+            .cloned()
+            .unwrap_or_default(),
+        triangle,
+        material: scene
+            .materials()
+            .get(material)
+            .map(|m| m.name.clone())
+            .unwrap_or_default(),
+        event,
+        point: point.to_array(),
+    }
+}
+
+/// A diffracted path's arrival: its UTD gains with air absorption over
+/// its length, from the direction of its last edge point.
+fn diffracted_arrival(
+    p: &DiffractedPath,
+    listener: DVec3,
+    speed: f64,
+    air: Option<&AirConditions>,
+) -> Arrival {
+    let air = air
+        .map(|a| a.pressure_factors(p.length))
+        .unwrap_or([1.0; BAND_COUNT]);
+    let mut gain = p.gain;
+    for (g, a) in gain.iter_mut().zip(air) {
+        *g *= a;
+    }
+    let from = p.points.last().map_or(listener, |e| e.point);
+    Arrival {
+        delay_s: p.length / speed,
+        direction: (from - listener).normalize_or_zero().as_vec3(),
+        pressure_gain: gain,
+    }
+}
+
+/// A diffracted path as answers show it: one `"diffraction"` event per
+/// edge (the triangle and material of the edge's first face), and, in
+/// place of an image source, the apparent source: the point the sound
+/// seems to come from, its length away along the last leg.
+fn diffracted_sound_path(
+    scene: &AcousticScene,
+    p: &DiffractedPath,
+    listener: DVec3,
+    a: &Arrival,
+    bands: &[usize],
+    speed: f64,
+) -> SoundPath {
+    let surfaces = p
+        .points
+        .iter()
+        .map(|e| {
+            surface_event(
+                scene,
+                (e.object, e.triangle),
+                e.group,
+                "diffraction",
+                e.point,
+            )
+        })
+        .collect();
+    let toward = a.direction.as_dvec3();
+    SoundPath {
+        order: p.points.len(),
+        distance_m: p.length,
+        delay_s: p.length / speed,
+        image_source: (listener + toward * p.length).to_array(),
         surfaces,
         pressure_gain: bands.iter().map(|&b| a.pressure_gain[b]).collect(),
     }

@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::{DVec3, Vec3};
 
 use super::beams::Beams;
+use super::diffraction::{EdgeScene, Edges};
 use super::path::{dedup_paths, validate, Event, ValidPath};
 use super::surfaces::Surfaces;
 use super::tracer::{trace, trace_beams, TraceInput, TraceOptions, TraceStats};
@@ -25,6 +26,8 @@ pub struct AcousticScene {
     object_names: Vec<String>,
     bvh: SceneBvh,
     surfaces: Surfaces,
+    /// Diffracting edges, found again per object as objects change.
+    edges: Edges,
     /// Changes since the scene was built: what answers name.
     revision: u64,
     /// This state's identity for caches, new with every change.
@@ -51,11 +54,13 @@ impl AcousticScene {
     pub fn new(scene: &Scene) -> Self {
         let bvh = SceneBvh::build(scene, &BuildOptions::default());
         let surfaces = Surfaces::new(&bvh);
+        let edges = Edges::new(&bvh, &surfaces);
         Self {
             materials: scene.materials.clone(),
             object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
             bvh,
             surfaces,
+            edges,
             revision: 0,
             state: next_state(),
         }
@@ -111,11 +116,26 @@ impl AcousticScene {
         &self.surfaces
     }
 
+    /// The diffracting edges.
+    pub fn edges(&self) -> &Edges {
+        &self.edges
+    }
+
+    /// What a diffraction search reads.
+    pub fn edge_scene(&self) -> EdgeScene<'_> {
+        EdgeScene {
+            bvh: &self.bvh,
+            surfaces: &self.surfaces,
+            edges: &self.edges,
+        }
+    }
+
     /// Moves an object rigidly.
     pub fn set_transform(&mut self, object: usize, transform: RigidTransform) -> Result<()> {
         let result = self.bvh.set_transform(object, transform);
         if result.is_ok() {
             self.surfaces.update_object(&self.bvh, object);
+            self.edges.update_object(&self.bvh, &self.surfaces, object);
         }
         self.changed(result)
     }
@@ -131,6 +151,7 @@ impl AcousticScene {
         let result = self.bvh.update_mesh(object, mesh, materials, threshold);
         if result.is_ok() {
             self.surfaces.update_object(&self.bvh, object);
+            self.edges.update_object(&self.bvh, &self.surfaces, object);
         }
         self.changed(result)
     }

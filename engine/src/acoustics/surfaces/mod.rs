@@ -76,6 +76,9 @@ pub struct Surfaces {
     groups: GroupTable,
     /// Length of the scene box's diagonal: the scale of every tolerance.
     scale: f64,
+    /// New with every full build (which renumbers the groups), so that
+    /// what keeps group ids can tell when they went stale.
+    numbering: u64,
 }
 
 impl Surfaces {
@@ -96,6 +99,10 @@ impl Surfaces {
             mesh_group: vec![NO_GROUP; n],
             groups: GroupTable::new(scale),
             scale,
+            numbering: {
+                static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+                NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+            },
         };
         for object in 0..bvh.object_count() {
             s.place_object(bvh, object);
@@ -221,6 +228,18 @@ impl Surfaces {
         (area, volume.abs())
     }
 
+    /// Which numbering of the groups this is: it changes only when every
+    /// group was found again.
+    pub fn numbering(&self) -> u64 {
+        self.numbering
+    }
+
+    /// The flat slots of `object`'s triangles.
+    pub(crate) fn object_slots(&self, object: usize) -> std::ops::Range<usize> {
+        let (start, end) = self.range(object);
+        start..end
+    }
+
     /// First flat index of `object`'s triangles.
     #[inline]
     pub(crate) fn object_base(&self, object: usize) -> usize {
@@ -256,10 +275,53 @@ impl Surfaces {
         p: DVec3,
         tol: f64,
     ) -> Option<(u32, u32)> {
-        let reach = (tol + 2e-5 * self.scale) as f32;
+        let mut best: Option<(u32, u32)> = None;
+        self.slots_near(bvh, p, tol + 2e-5 * self.scale, |object, slot, triangle| {
+            let found = (object, triangle);
+            if self.slot_group[slot] == group
+                && best.is_none_or(|b| found < b)
+                && contains(&self.corners[slot], p, tol)
+            {
+                best = Some(found);
+            }
+        });
+        best
+    }
+
+    /// Whether a triangle other than those `own` accepts (flat slots) lies
+    /// within `tol` of `p`: another surface meeting a point of an edge.
+    pub(crate) fn touches_other(
+        &self,
+        bvh: &SceneBvh,
+        p: DVec3,
+        tol: f64,
+        own: impl Fn(usize) -> bool,
+    ) -> bool {
+        let mut touched = false;
+        self.slots_near(bvh, p, tol, |_, slot, _| {
+            if !touched && self.slot_group[slot] != NO_GROUP && !own(slot) {
+                let corners = &self.corners[slot];
+                let plane = &self.groups.get(self.slot_group[slot]).plane;
+                let d = plane.distance(p);
+                touched = d.abs() <= tol && contains(corners, p - d * plane.normal, tol);
+            }
+        });
+        touched
+    }
+
+    /// Calls `visit(object, flat slot, mesh-order triangle)` for every
+    /// triangle whose leaf box comes within `reach` metres of `p` (a box
+    /// query on `bvh`).
+    fn slots_near(
+        &self,
+        bvh: &SceneBvh,
+        p: DVec3,
+        reach: f64,
+        mut visit: impl FnMut(u32, usize, u32),
+    ) {
+        let reach = reach as f32;
         let centre = p.as_vec3a();
         let query = Aabb::new(centre - Vec3A::splat(reach), centre + Vec3A::splat(reach));
-        let mut best: Option<(u32, u32)> = None;
         bvh.walk_objects(&OverlapTest::new(query), 0.0, |object, inst, _| {
             let local = if inst.is_identity() {
                 query
@@ -273,19 +335,12 @@ impl Surfaces {
                 .walk(&OverlapTest::new(local), 0.0, |first, count, _| {
                     let slots = first as usize..(first + count) as usize;
                     for (slot, &triangle) in slots.clone().zip(&ids[slots]) {
-                        let found = (object, triangle);
-                        if self.slot_group[base + slot] == group
-                            && best.is_none_or(|b| found < b)
-                            && contains(&self.corners[base + slot], p, tol)
-                        {
-                            best = Some(found);
-                        }
+                        visit(object, base + slot, triangle);
                     }
                     Flow::Continue(())
                 });
             Flow::Continue(())
         });
-        best
     }
 }
 
