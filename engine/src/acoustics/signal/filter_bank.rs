@@ -61,13 +61,78 @@ pub fn filter_and_sum(bands: &[Vec<f32>], sample_rate: u32) -> Result<Vec<f32>> 
 /// repeat, then [`finish`](Self::finish).
 pub(crate) struct OctaveFilterBank {
     len: usize,
-    sample_rate: f64,
-    forward: Arc<dyn RealToComplex<f64>>,
-    inverse: Arc<dyn ComplexToReal<f64>>,
+    plan: Arc<Plan>,
     time: Vec<f64>,
     spectrum: Vec<Complex<f64>>,
     sum: Vec<Complex<f64>>,
     scratch: Vec<Complex<f64>>,
+}
+
+/// The transforms and band masks of one transform length and sample rate:
+/// planning a transform computes its twiddles (a sine and cosine per
+/// point), and a mask a logarithm and two sines per bin, which for a 3 s
+/// response cost more than filtering it. Built once per process and kept.
+struct Plan {
+    forward: Arc<dyn RealToComplex<f64>>,
+    inverse: Arc<dyn ComplexToReal<f64>>,
+    /// Per band, its first non-zero bin and the mask from there.
+    masks: Vec<(usize, Vec<f64>)>,
+}
+
+/// Plans kept at most: responses of many lengths round to a few powers of
+/// two, and a plan for a 3 s response at 48 kHz holds about 6 MB.
+const KEPT_PLANS: usize = 8;
+
+fn plan(fft_len: usize, sample_rate: u32) -> Arc<Plan> {
+    use std::sync::{Mutex, PoisonError};
+    type Plans = Vec<((usize, u32), Arc<Plan>)>;
+    static PLANS: Mutex<Plans> = Mutex::new(Vec::new());
+    let key = (fft_len, sample_rate);
+    if let Some((_, p)) = PLANS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .iter()
+        .find(|(k, _)| *k == key)
+    {
+        return p.clone();
+    }
+    let mut planner = RealFftPlanner::<f64>::new();
+    let forward = planner.plan_fft_forward(fft_len);
+    let inverse = planner.plan_fft_inverse(fft_len);
+    let bins = fft_len / 2 + 1;
+    let hz_per_bin = f64::from(sample_rate) / fft_len as f64;
+    let masks = (0..BAND_COUNT)
+        .map(|band| {
+            // The mask is zero outside the octave on either side of the
+            // centre (the top band runs to Nyquist).
+            let low_hz = if band == 0 {
+                0.0
+            } else {
+                band_centre_hz(band) / 2.0
+            };
+            let first = ((low_hz / hz_per_bin).floor() as usize).min(bins - 1);
+            let last = if band == BAND_COUNT - 1 {
+                bins - 1
+            } else {
+                ((band_centre_hz(band) * 2.0 / hz_per_bin).ceil() as usize).min(bins - 1)
+            };
+            let weights = (first..=last)
+                .map(|bin| band_weight(band, bin as f64 * hz_per_bin))
+                .collect();
+            (first, weights)
+        })
+        .collect();
+    let plan = Arc::new(Plan {
+        forward,
+        inverse,
+        masks,
+    });
+    let mut plans = PLANS.lock().unwrap_or_else(PoisonError::into_inner);
+    if plans.len() >= KEPT_PLANS {
+        plans.remove(0);
+    }
+    plans.push((key, plan.clone()));
+    plan
 }
 
 impl OctaveFilterBank {
@@ -77,19 +142,18 @@ impl OctaveFilterBank {
             return Err(Error::InvalidAudio("sample rate must be positive".into()));
         }
         let fft_len = (len + tail_samples(sample_rate)).next_power_of_two();
-        let mut planner = RealFftPlanner::<f64>::new();
-        let forward = planner.plan_fft_forward(fft_len);
-        let inverse = planner.plan_fft_inverse(fft_len);
-        let scratch_len = forward.get_scratch_len().max(inverse.get_scratch_len());
+        let plan = plan(fft_len, sample_rate);
+        let scratch_len = plan
+            .forward
+            .get_scratch_len()
+            .max(plan.inverse.get_scratch_len());
         Ok(Self {
             len,
-            sample_rate: f64::from(sample_rate),
-            time: forward.make_input_vec(),
-            spectrum: forward.make_output_vec(),
-            sum: forward.make_output_vec(),
+            time: plan.forward.make_input_vec(),
+            spectrum: plan.forward.make_output_vec(),
+            sum: plan.forward.make_output_vec(),
             scratch: vec![Complex::default(); scratch_len],
-            forward,
-            inverse,
+            plan,
         })
     }
 
@@ -105,27 +169,14 @@ impl OctaveFilterBank {
         if band >= BAND_COUNT {
             return;
         }
-        self.forward
+        self.plan
+            .forward
             .process_with_scratch(&mut self.time, &mut self.spectrum, &mut self.scratch)
             .expect("buffers are sized by the plan");
-        let hz_per_bin = self.sample_rate / self.time.len() as f64;
-        // The mask is zero outside the octave on either side of the centre.
-        let low_hz = if band == 0 {
-            0.0
-        } else {
-            band_centre_hz(band) / 2.0
-        };
-        let high_hz = band_centre_hz(band) * 2.0;
-        let first = (low_hz / hz_per_bin).floor() as usize;
-        let last = ((high_hz / hz_per_bin).ceil() as usize).min(self.sum.len() - 1);
-        let last = if band == BAND_COUNT - 1 {
-            self.sum.len() - 1
-        } else {
-            last
-        };
-        for bin in first..=last {
-            let weight = band_weight(band, bin as f64 * hz_per_bin);
-            self.sum[bin] += self.spectrum[bin] * weight;
+        let (first, weights) = &self.plan.masks[band];
+        let bins = self.sum[*first..].iter_mut().zip(&self.spectrum[*first..]);
+        for ((sum, &spectrum), &weight) in bins.zip(weights) {
+            *sum += spectrum * weight;
         }
     }
 
@@ -136,7 +187,8 @@ impl OctaveFilterBank {
         let n = self.sum.len();
         self.sum[0].im = 0.0;
         self.sum[n - 1].im = 0.0;
-        self.inverse
+        self.plan
+            .inverse
             .process_with_scratch(&mut self.sum, &mut self.time, &mut self.scratch)
             .expect("buffers are sized by the plan");
         let scale = 1.0 / self.time.len() as f64;
