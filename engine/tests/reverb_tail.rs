@@ -496,3 +496,78 @@ fn open_floor_rain_matches_lamberts_integral() {
         .iter()
         .all(|p| p.order == 0 || p.pressure_gain[0] == 0.0));
 }
+
+/// A stream's cache keeps the rays' walk of a source and hands it to
+/// listeners that move: each moved listener's tail equals, to the bit,
+/// one traced from scratch for it, and only the first call walks.
+#[test]
+fn a_kept_walk_gives_moving_listeners_the_tail_a_fresh_trace_does() {
+    use frusta_engine::acoustics::{simulate_cached, BeamCache};
+    let room = BoxRoom::new(Vec3::ZERO, Vec3::from_array(ROOM.map(|v| v as f32)));
+    let mut walls = Material::uniform("walls", 0.2).unwrap();
+    walls.scattering = [0.4; BAND_COUNT];
+    let scene =
+        AcousticScene::new(&Scene::single_object("room", room.generate().unwrap(), walls).unwrap());
+    let options = SimulationOptions {
+        max_order: 2,
+        bands_hz: vec![500.0, 1000.0],
+        air: None,
+        tail: Tail::Stochastic(TailOptions {
+            rays: 2048,
+            max_length_s: 1.0,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let source = Vec3::from_array(SOURCE.map(|v| v as f32));
+    // A walk over the cache's cap is traced each time, with the same answer.
+    let mut small = BeamCache::default().with_max_tail_events(1000);
+    for _ in 0..2 {
+        let listener = Vec3::new(7.0, 2.0, 1.2);
+        let r = simulate_cached(
+            &scene,
+            &[source],
+            &[listener],
+            &options,
+            &mut small,
+            None,
+            None,
+        )
+        .unwrap()
+        .remove(0);
+        let fresh = simulate(&scene, &[source], &[listener], &options)
+            .unwrap()
+            .remove(0);
+        assert!(!r.stats.tail.as_ref().unwrap().walk_reused);
+        assert_eq!(r.impulse_response, fresh.impulse_response);
+    }
+    let mut cache = BeamCache::default();
+    for (step, x) in [7.0f32, 7.3, 7.6].into_iter().enumerate() {
+        let listener = Vec3::new(x, 2.0, 1.2);
+        let kept = simulate_cached(
+            &scene,
+            &[source],
+            &[listener],
+            &options,
+            &mut cache,
+            None,
+            None,
+        )
+        .unwrap()
+        .remove(0);
+        let fresh = simulate(&scene, &[source], &[listener], &options)
+            .unwrap()
+            .remove(0);
+        let tail = kept.stats.tail.as_ref().unwrap();
+        assert_eq!(tail.walk_reused, step > 0, "step {step}");
+        assert_eq!(
+            tail.reflections,
+            fresh.stats.tail.as_ref().unwrap().reflections
+        );
+        assert_eq!(
+            kept.late_energy.unwrap().bins,
+            fresh.late_energy.unwrap().bins
+        );
+        assert_eq!(kept.impulse_response, fresh.impulse_response);
+    }
+}

@@ -127,6 +127,10 @@ pub struct TailStatsOut {
     pub receiver_radius_m: f64,
     /// The room volume the sphere and the tail's echo density were sized by, m³.
     pub volume_m3: f64,
+    /// Whether the rays' walk came from a stream's cache (the source and
+    /// the scene unchanged): only the listeners' shadow rays and sphere
+    /// tests were done.
+    pub walk_reused: bool,
     pub trace_ms: f64,
 }
 
@@ -172,6 +176,7 @@ impl From<&Response> for PairResponse {
                     shadow_rays: t.shadow_rays,
                     receiver_radius_m: t.receiver_radius_m,
                     volume_m3: t.volume_m3,
+                    walk_reused: t.walk_reused,
                     trace_ms: t.trace_ms,
                 }),
                 total_ms: stats.total_ms,

@@ -5,6 +5,7 @@
 use glam::DVec3;
 
 use super::beams::Beams;
+use super::tail::{record_tail, trace_tail, TailInput, TailOptions, TailRecord, TracedTail};
 use super::tracer::{trace_keeping, TraceOptions};
 use super::{AcousticScene, FoundPaths};
 use crate::deadline::Deadline;
@@ -20,10 +21,27 @@ pub struct BeamCache {
     /// Source position (exact bits) and its beams.
     entries: Vec<([u64; 3], Beams)>,
     max_beams: usize,
+    /// Source position, what its tail's walk depends on besides the key,
+    /// and the walk (`None`: more than [`Self::max_tail_events`] events,
+    /// so it is traced each time).
+    tails: Vec<([u64; 3], TailKey, Option<TailRecord>)>,
+    max_tail_events: usize,
+}
+
+/// What a tail's walk depends on beyond the scene state and the trace
+/// options (its exact order and bands).
+#[derive(Clone, Debug, PartialEq)]
+struct TailKey {
+    options: TailOptions,
+    speed_of_sound: u64,
 }
 
 /// About 80 MB of beams per source.
 pub const DEFAULT_MAX_BEAMS: usize = 500_000;
+
+/// About 64 MiB of tail events per source (hall-10k's default tail walk
+/// has about 0.8 million).
+pub const DEFAULT_MAX_TAIL_EVENTS: usize = 1 << 20;
 
 impl Default for BeamCache {
     fn default() -> Self {
@@ -50,6 +68,8 @@ impl BeamCache {
             key: None,
             entries: Vec::new(),
             max_beams,
+            tails: Vec::new(),
+            max_tail_events: DEFAULT_MAX_TAIL_EVENTS,
         }
     }
 
@@ -72,6 +92,7 @@ impl BeamCache {
             .is_none_or(|k| k.state != scene.state() || k.options != *options);
         if stale {
             self.entries.clear();
+            self.tails.clear();
             self.key = Some(Key {
                 state: scene.state(),
                 options: options.clone(),
@@ -79,6 +100,56 @@ impl BeamCache {
         }
         let wanted: Vec<[u64; 3]> = sources.iter().map(|&s| bits(s)).collect();
         self.entries.retain(|(key, _)| wanted.contains(key));
+        self.tails.retain(|(key, _, _)| wanted.contains(key));
+    }
+
+    /// The most events a kept tail walk may hold.
+    pub fn max_tail_events(&self) -> usize {
+        self.max_tail_events
+    }
+
+    /// This cache, keeping tail walks of at most `max_events` events.
+    pub fn with_max_tail_events(mut self, max_events: usize) -> Self {
+        self.max_tail_events = max_events;
+        self
+    }
+
+    /// The late reverberation of `source` at `listeners` from its kept
+    /// walk, walked and kept first when there is none; and whether it was
+    /// kept. Call [`Self::retain`] first.
+    pub(crate) fn tail(
+        &mut self,
+        scene: &AcousticScene,
+        source: DVec3,
+        listeners: &[DVec3],
+        input: &TailInput,
+        deadline: &Deadline,
+    ) -> Result<(TracedTail, bool)> {
+        let key = TailKey {
+            options: input.options.clone(),
+            speed_of_sound: input.speed_of_sound.to_bits(),
+        };
+        let at = bits(source);
+        let kept = self
+            .tails
+            .iter()
+            .position(|(s, k, _)| *s == at && *k == key);
+        let (i, reused) = match kept {
+            Some(i) => (i, true),
+            None => {
+                self.tails.retain(|(s, _, _)| *s != at);
+                let record = record_tail(scene, source, input, self.max_tail_events, deadline)?;
+                self.tails.push((at, key, record));
+                (self.tails.len() - 1, false)
+            }
+        };
+        match &self.tails[i].2 {
+            Some(record) => Ok((record.replay(scene, listeners, input, deadline)?, reused)),
+            None => Ok((
+                trace_tail(scene, source, listeners, input, deadline)?,
+                false,
+            )),
+        }
     }
 
     /// [`AcousticScene::find_paths`] from the kept beams of `source`, traced

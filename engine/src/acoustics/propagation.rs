@@ -352,13 +352,15 @@ fn simulate_with(
                     speed_of_sound: speed,
                     air: options.air.as_ref(),
                 };
-                Some(trace_tail(
-                    scene,
-                    source,
-                    &listener_points,
-                    &input,
-                    &deadline,
-                )?)
+                Some(match cache.as_deref_mut() {
+                    Some(cache) => {
+                        let (mut traced, reused) =
+                            cache.tail(scene, source, &listener_points, &input, &deadline)?;
+                        traced.stats.walk_reused = reused;
+                        traced
+                    }
+                    None => trace_tail(scene, source, &listener_points, &input, &deadline)?,
+                })
             }
             None => None,
         };

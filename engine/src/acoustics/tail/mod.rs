@@ -48,7 +48,7 @@ use super::AcousticScene;
 use crate::deadline::Deadline;
 use crate::scene::{Bands, BAND_COUNT};
 use crate::{Error, Result};
-use walk::Walk;
+use walk::{Receivers, Tally, Walk};
 
 /// Width of a histogram bin, s.
 pub const BIN_S: f64 = 1e-3;
@@ -203,6 +203,9 @@ pub struct TailStats {
     pub receiver_radius_m: f64,
     /// The room volume the sphere and the reflection density were sized by.
     pub volume_m3: f64,
+    /// Whether the rays' walk was a stream's kept one (only the listeners'
+    /// shadow rays and sphere tests were done).
+    pub walk_reused: bool,
     pub trace_ms: f64,
 }
 
@@ -233,39 +236,173 @@ pub(crate) fn trace_tail(
     deadline: &Deadline,
 ) -> Result<TracedTail> {
     let start = Instant::now();
-    let options = input.options;
-    let volume = room_volume(scene);
-    let free_path = mean_free_path(scene, volume);
-    let radius = options.receiver_radius_m.unwrap_or_else(|| {
-        receiver_radius(scene, volume, free_path, options.rays, input.speed_of_sound)
-    });
-    let walk = Walk::new(scene, source, listeners, input, radius, free_path);
-    let rays = options.rays as usize;
-    let per_chunk = rays.div_ceil(CHUNKS);
-    let chunks: Vec<walk::Tally> = (0..CHUNKS)
+    let room = Room::of(scene, input);
+    let walk = Walk::new(scene, source, input, room.free_path);
+    let receivers = Receivers::new(scene, listeners, input, room.radius);
+    let chunks: Vec<Tally> = chunk_ranges(input.options.rays)
         .into_par_iter()
-        .map(|c| walk.rays(c * per_chunk..((c + 1) * per_chunk).min(rays), deadline))
+        .map(|rays| {
+            let mut tally = Tally::new(listeners.len());
+            // Events are rounded as a kept walk keeps them, so a stream's
+            // replayed tail is this one, to the bit.
+            tally.reflections = walk.rays(rays, deadline, &mut |e| {
+                receivers.take(&walk::Event::from(&walk::Recorded::from(&e)), &mut tally)
+            })?;
+            Ok(tally)
+        })
         .collect::<Result<_>>()?;
-    let mut total = walk::Tally::new(listeners.len());
-    for chunk in &chunks {
+    Ok(summed(&chunks, &room, input, start))
+}
+
+/// The walk of one source's rays, kept to hand to any listeners later
+/// ([`TailRecord::replay`]): the walk is most of a tail's work, and it
+/// does not depend on the listeners.
+#[derive(Clone, Debug)]
+pub struct TailRecord {
+    /// The events of each chunk of rays, in walk order.
+    chunks: Vec<Vec<walk::Recorded>>,
+    reflections: u64,
+    rays: u32,
+}
+
+impl TailRecord {
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.chunks.iter().map(Vec::len).sum::<usize>() * std::mem::size_of::<walk::Recorded>()
+    }
+}
+
+/// Walks the rays of `source` and keeps their events, unless they number
+/// more than `max_events` (then `None`: the caller traces each time).
+pub(crate) fn record_tail(
+    scene: &AcousticScene,
+    source: DVec3,
+    input: &TailInput,
+    max_events: usize,
+    deadline: &Deadline,
+) -> Result<Option<TailRecord>> {
+    let room = Room::of(scene, input);
+    let walk = Walk::new(scene, source, input, room.free_path);
+    let per_chunk = max_events / CHUNKS;
+    let chunks: Vec<Option<(Vec<walk::Recorded>, u64)>> = chunk_ranges(input.options.rays)
+        .into_par_iter()
+        .map(|rays| {
+            let mut events = Vec::new();
+            let mut full = false;
+            let hits = walk.rays(rays, deadline, &mut |e| {
+                if events.len() < per_chunk {
+                    events.push(walk::Recorded::from(&e));
+                } else {
+                    full = true;
+                }
+            })?;
+            Ok((!full).then_some((events, hits)))
+        })
+        .collect::<Result<_>>()?;
+    let Some(chunks) = chunks.into_iter().collect::<Option<Vec<_>>>() else {
+        return Ok(None);
+    };
+    Ok(Some(TailRecord {
+        reflections: chunks.iter().map(|c| c.1).sum(),
+        chunks: chunks.into_iter().map(|c| c.0).collect(),
+        rays: input.options.rays,
+    }))
+}
+
+impl TailRecord {
+    /// The tail of the recorded source at `listeners`: what
+    /// [`trace_tail`] gives, to the bit, for the cost of the shadow rays
+    /// and sphere tests alone.
+    pub(crate) fn replay(
+        &self,
+        scene: &AcousticScene,
+        listeners: &[DVec3],
+        input: &TailInput,
+        deadline: &Deadline,
+    ) -> Result<TracedTail> {
+        let start = Instant::now();
+        let room = Room::of(scene, input);
+        let receivers = Receivers::new(scene, listeners, input, room.radius);
+        let chunks: Vec<Tally> = self
+            .chunks
+            .par_iter()
+            .map(|events| {
+                deadline.check()?;
+                let mut tally = Tally::new(listeners.len());
+                for e in events {
+                    receivers.take(&walk::Event::from(e), &mut tally);
+                }
+                Ok(tally)
+            })
+            .collect::<Result<_>>()?;
+        let mut traced = summed(&chunks, &room, input, start);
+        traced.stats.rays = u64::from(self.rays);
+        traced.stats.reflections = self.reflections;
+        Ok(traced)
+    }
+}
+
+/// What a tail's estimators are sized by.
+struct Room {
+    volume: f64,
+    free_path: f64,
+    radius: f64,
+}
+
+impl Room {
+    fn of(scene: &AcousticScene, input: &TailInput) -> Self {
+        let volume = room_volume(scene);
+        let free_path = mean_free_path(scene, volume);
+        let radius = input.options.receiver_radius_m.unwrap_or_else(|| {
+            receiver_radius(
+                scene,
+                volume,
+                free_path,
+                input.options.rays,
+                input.speed_of_sound,
+            )
+        });
+        Self {
+            volume,
+            free_path,
+            radius,
+        }
+    }
+}
+
+/// The rays of each of the [`CHUNKS`] chunks.
+fn chunk_ranges(rays: u32) -> Vec<std::ops::Range<usize>> {
+    let rays = rays as usize;
+    let per_chunk = rays.div_ceil(CHUNKS);
+    (0..CHUNKS)
+        .map(|c| c * per_chunk..((c + 1) * per_chunk).min(rays))
+        .collect()
+}
+
+/// The chunks' tallies summed in chunk order, as histograms.
+fn summed(chunks: &[Tally], room: &Room, input: &TailInput, start: Instant) -> TracedTail {
+    let listeners = chunks.first().map_or(0, |c| c.energy.len());
+    let mut total = Tally::new(listeners);
+    for chunk in chunks {
         total.add(chunk);
     }
     let histograms = total
         .energy
         .iter()
-        .map(|bins| histogram(bins, volume, input, options.seed))
+        .map(|bins| histogram(bins, room.volume, input, input.options.seed))
         .collect();
-    Ok(TracedTail {
+    TracedTail {
         histograms,
         stats: TailStats {
-            rays: rays as u64,
+            rays: u64::from(input.options.rays),
             reflections: total.reflections,
             shadow_rays: total.shadow_rays,
-            receiver_radius_m: radius,
-            volume_m3: volume,
+            receiver_radius_m: room.radius,
+            volume_m3: room.volume,
+            walk_reused: false,
             trace_ms: start.elapsed().as_secs_f64() * 1e3,
         },
-    })
+    }
 }
 
 /// A listener's summed bins with air absorption applied by each bin's

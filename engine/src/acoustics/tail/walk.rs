@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 use std::ops::Range;
 
-use glam::{DQuat, DVec3};
+use glam::{DQuat, DVec3, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -77,6 +77,100 @@ impl Tally {
     }
 }
 
+/// What a walk hands the listeners, whoever they are: the walk itself
+/// depends on the source alone, so a stream can keep its events and hand
+/// them to listeners that move ([`Recorded`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Event {
+    /// A leg a listener's sphere may count.
+    Leg {
+        origin: DVec3,
+        dir: DVec3,
+        leg: f64,
+        travelled: f64,
+        energy: Energy,
+    },
+    /// Diffusely reflected energy leaving `point` (facing `facing`).
+    Rain {
+        point: DVec3,
+        facing: DVec3,
+        travelled: f64,
+        energy: Energy,
+    },
+}
+
+/// An [`Event`] in single precision, 64 bytes instead of 128: positions
+/// to well under a millimetre, times to under a microsecond, energies to
+/// 1e-7 of their value. Every tail is counted from events so rounded,
+/// kept or not.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Recorded {
+    /// The leg's origin or the rain's point.
+    at: Vec3,
+    /// The leg's direction or the rain's facing.
+    towards: Vec3,
+    /// The leg's length; negative for rain.
+    leg: f32,
+    travelled: f32,
+    energy: [f32; BAND_COUNT],
+}
+
+impl From<&Event> for Recorded {
+    fn from(e: &Event) -> Self {
+        let energy = |e: &Energy| e.map(|v| v as f32);
+        match e {
+            Event::Leg {
+                origin,
+                dir,
+                leg,
+                travelled,
+                energy: en,
+            } => Self {
+                at: origin.as_vec3(),
+                towards: dir.as_vec3(),
+                leg: *leg as f32,
+                travelled: *travelled as f32,
+                energy: energy(en),
+            },
+            Event::Rain {
+                point,
+                facing,
+                travelled,
+                energy: en,
+            } => Self {
+                at: point.as_vec3(),
+                towards: facing.as_vec3(),
+                leg: -1.0,
+                travelled: *travelled as f32,
+                energy: energy(en),
+            },
+        }
+    }
+}
+
+impl From<&Recorded> for Event {
+    fn from(r: &Recorded) -> Self {
+        let energy = r.energy.map(f64::from);
+        let travelled = f64::from(r.travelled);
+        if r.leg >= 0.0 {
+            Event::Leg {
+                origin: r.at.as_dvec3(),
+                dir: r.towards.as_dvec3(),
+                leg: f64::from(r.leg),
+                travelled,
+                energy,
+            }
+        } else {
+            Event::Rain {
+                point: r.at.as_dvec3(),
+                facing: r.towards.as_dvec3(),
+                travelled,
+                energy,
+            }
+        }
+    }
+}
+
 /// A material's energy fractions per band, as the walk reads them at
 /// every hit (converted once per trace, not per hit).
 struct Surface {
@@ -107,9 +201,6 @@ pub(super) struct Walk<'a> {
     scene: &'a AcousticScene,
     surfaces: Vec<Surface>,
     source: DVec3,
-    listeners: &'a [DVec3],
-    radius: f64,
-    sphere_volume: f64,
     /// Rays in all, and the turn of their starting lattice.
     rays: usize,
     rotation: DQuat,
@@ -122,7 +213,6 @@ pub(super) struct Walk<'a> {
     active: [bool; BAND_COUNT],
     /// Each ray's starting energy per active band.
     start: Energy,
-    speed: f64,
     max_length_m: f64,
     /// How far off a surface a ray restarts, so it does not hit it again.
     offset: f64,
@@ -130,22 +220,12 @@ pub(super) struct Walk<'a> {
 }
 
 impl<'a> Walk<'a> {
-    pub fn new(
-        scene: &'a AcousticScene,
-        source: DVec3,
-        listeners: &'a [DVec3],
-        input: &TailInput,
-        radius: f64,
-        free_path: f64,
-    ) -> Self {
+    pub fn new(scene: &'a AcousticScene, source: DVec3, input: &TailInput, free_path: f64) -> Self {
         let share = 4.0 * PI / f64::from(input.options.rays);
         Self {
             scene,
             surfaces: scene.materials().iter().map(Surface::of).collect(),
             source,
-            listeners,
-            radius,
-            sphere_volume: 4.0 / 3.0 * PI * radius.powi(3),
             rays: input.options.rays as usize,
             rotation: {
                 let mut rng = ChaCha8Rng::seed_from_u64(input.options.seed);
@@ -158,25 +238,30 @@ impl<'a> Walk<'a> {
             exact_order: input.exact_order,
             active: input.active_bands,
             start: input.active_bands.map(|a| if a { share } else { 0.0 }),
-            speed: input.speed_of_sound,
             max_length_m: input.options.max_length_s * input.speed_of_sound,
             offset: 1e-6 * scene.surfaces().scale().max(1e-3),
             seed: input.options.seed,
         }
     }
 
-    /// The tally of rays `rays`.
-    pub fn rays(&self, rays: Range<usize>, deadline: &Deadline) -> Result<Tally> {
-        let mut tally = Tally::new(self.listeners.len());
+    /// Walks rays `rays`, handing every event to `emit`; returns the
+    /// surface hits.
+    pub fn rays(
+        &self,
+        rays: Range<usize>,
+        deadline: &Deadline,
+        emit: &mut impl FnMut(Event),
+    ) -> Result<u64> {
+        let mut hits = 0;
         for (i, ray) in rays.enumerate() {
             if i as u64 % CLOCK_PERIOD == 0 {
                 deadline.check()?;
             }
             let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
             rng.set_stream(ray as u64);
-            self.ray(self.direction(ray), &mut rng, &mut tally);
+            hits += self.ray(self.direction(ray), &mut rng, emit);
         }
-        Ok(tally)
+        Ok(hits)
     }
 
     /// The starting direction of ray `ray`: point `ray` of a spherical
@@ -194,7 +279,7 @@ impl<'a> Walk<'a> {
         self.rotation * DVec3::new(r * phi.cos(), r * phi.sin(), z)
     }
 
-    fn ray(&self, start: DVec3, rng: &mut ChaCha8Rng, tally: &mut Tally) {
+    fn ray(&self, start: DVec3, rng: &mut ChaCha8Rng, emit: &mut impl FnMut(Event)) -> u64 {
         let mut origin = self.source;
         let mut dir = start;
         let mut energy = self.start;
@@ -212,12 +297,17 @@ impl<'a> Walk<'a> {
             let leg = hit.map_or(remaining, |h| f64::from(h.t));
             let exact = specular && order <= self.exact_order;
             if !(after_diffuse || exact) {
-                self.cross_spheres(origin, dir, leg, travelled, &energy, tally);
+                emit(Event::Leg {
+                    origin,
+                    dir,
+                    leg,
+                    travelled,
+                    energy,
+                });
             }
             let Some(hit) = hit else { break };
             travelled += leg;
             order += 1;
-            tally.reflections += 1;
             if travelled >= self.max_length_m {
                 break;
             }
@@ -244,13 +334,12 @@ impl<'a> Walk<'a> {
                 {
                     *d *= r * s / chance;
                 }
-                self.rain(
-                    point + facing * self.offset,
+                emit(Event::Rain {
+                    point: point + facing * self.offset,
                     facing,
                     travelled,
-                    &diffuse,
-                    tally,
-                );
+                    energy: diffuse,
+                });
             }
             let through = self.mean(&surface.transmitted, &energy);
             let back = self.mean(&surface.reflected, &energy);
@@ -292,6 +381,7 @@ impl<'a> Walk<'a> {
                 break;
             }
         }
+        u64::from(order)
     }
 
     /// The mean over active bands of `fraction`, weighted by `energy`.
@@ -314,6 +404,53 @@ impl<'a> Walk<'a> {
         self.surfaces
             .get(material as usize)
             .unwrap_or(&Surface::REFLECTING)
+    }
+}
+
+/// The listeners a walk's events are handed to, and what they count.
+pub(super) struct Receivers<'a> {
+    scene: &'a AcousticScene,
+    listeners: &'a [DVec3],
+    radius: f64,
+    sphere_volume: f64,
+    speed: f64,
+    max_length_m: f64,
+}
+
+impl<'a> Receivers<'a> {
+    pub fn new(
+        scene: &'a AcousticScene,
+        listeners: &'a [DVec3],
+        input: &TailInput,
+        radius: f64,
+    ) -> Self {
+        Self {
+            scene,
+            listeners,
+            radius,
+            sphere_volume: 4.0 / 3.0 * PI * radius.powi(3),
+            speed: input.speed_of_sound,
+            max_length_m: input.options.max_length_s * input.speed_of_sound,
+        }
+    }
+
+    /// Counts one event at every listener.
+    pub fn take(&self, event: &Event, tally: &mut Tally) {
+        match *event {
+            Event::Leg {
+                origin,
+                dir,
+                leg,
+                travelled,
+                ref energy,
+            } => self.cross_spheres(origin, dir, leg, travelled, energy, tally),
+            Event::Rain {
+                point,
+                facing,
+                travelled,
+                ref energy,
+            } => self.rain(point, facing, travelled, energy, tally),
+        }
     }
 
     /// The track-length estimate of the leg `origin + dir · [0, leg]`,
