@@ -125,6 +125,7 @@ impl BeamCache {
         input: &TailInput,
         deadline: &Deadline,
     ) -> Result<(TracedTail, bool)> {
+        let start = std::time::Instant::now();
         let key = TailKey {
             options: input.options.clone(),
             speed_of_sound: input.speed_of_sound.to_bits(),
@@ -143,13 +144,16 @@ impl BeamCache {
                 (self.tails.len() - 1, false)
             }
         };
-        match &self.tails[i].2 {
-            Some(record) => Ok((record.replay(scene, listeners, input, deadline)?, reused)),
-            None => Ok((
+        let (mut traced, reused) = match &self.tails[i].2 {
+            Some(record) => (record.replay(scene, listeners, input, deadline)?, reused),
+            None => (
                 trace_tail(scene, source, listeners, input, deadline)?,
                 false,
-            )),
-        }
+            ),
+        };
+        // The walk's time too, when this call walked.
+        traced.stats.trace_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok((traced, reused))
     }
 
     /// [`AcousticScene::find_paths`] from the kept beams of `source`, traced
