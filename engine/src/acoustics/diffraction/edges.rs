@@ -20,6 +20,7 @@ use glam::{DVec3, Vec3, Vec3A};
 use rayon::prelude::*;
 
 use crate::acoustics::surfaces::{Surfaces, NO_GROUP};
+use crate::geometry::Aabb;
 use crate::query::SceneBvh;
 
 /// The smallest turn between two faces (the air's angle minus π) that
@@ -96,27 +97,44 @@ impl Edge {
 #[derive(Clone, Debug, Default)]
 pub struct Edges {
     per_object: Vec<Vec<Edge>>,
+    /// Each object's world box when its edges were found: a junction
+    /// depends on the objects around, so a move finds again the edges of
+    /// every object near the mover's old or new place.
+    bounds: Vec<Aabb>,
     /// The surfaces' group numbering the edges' groups belong to.
     numbering: u64,
 }
 
 impl Edges {
     pub fn new(bvh: &SceneBvh, surfaces: &Surfaces) -> Self {
-        let per_object = (0..bvh.object_count())
-            .map(|o| object_edges(bvh, surfaces, o))
-            .collect();
+        let objects = 0..bvh.object_count();
         Self {
-            per_object,
+            per_object: objects
+                .clone()
+                .map(|o| object_edges(bvh, surfaces, o))
+                .collect(),
+            bounds: objects.map(|o| object_bounds(surfaces, o)).collect(),
             numbering: surfaces.numbering(),
         }
     }
 
-    /// Finds `object`'s edges again after it moved or changed shape.
+    /// Finds `object`'s edges again after it moved or changed shape, and
+    /// those of the objects it left or came to touch.
     pub fn update_object(&mut self, bvh: &SceneBvh, surfaces: &Surfaces, object: usize) {
         if self.per_object.len() != bvh.object_count() || self.numbering != surfaces.numbering() {
             *self = Self::new(bvh, surfaces);
-        } else {
-            self.per_object[object] = object_edges(bvh, surfaces, object);
+            return;
+        }
+        let reach = Vec3A::splat((1e-5 * surfaces.scale()) as f32);
+        let grown = |b: Aabb| Aabb::new(b.min - reach, b.max + reach);
+        let old = grown(self.bounds[object]);
+        self.bounds[object] = object_bounds(surfaces, object);
+        let new = grown(self.bounds[object]);
+        for o in 0..self.per_object.len() {
+            let near = self.bounds[o].overlaps(&old) || self.bounds[o].overlaps(&new);
+            if o == object || near {
+                self.per_object[o] = object_edges(bvh, surfaces, o);
+            }
         }
     }
 
@@ -133,11 +151,23 @@ impl Edges {
     }
 }
 
+/// The world box of `object`'s triangles.
+fn object_bounds(surfaces: &Surfaces, object: usize) -> Aabb {
+    surfaces
+        .object_slots(object)
+        .map(|slot| {
+            let c = surfaces.slot(slot).0;
+            Aabb::of_triangle(c[0], c[1], c[2])
+        })
+        .fold(Aabb::EMPTY, Aabb::union)
+}
+
 /// A triangle side, keyed by its corners' bits, lower corner first.
 type SideKey = ([u32; 3], [u32; 3]);
 
+/// `-0.0` is made `+0.0` first, so that corners equal as numbers match.
 fn bits(p: Vec3A) -> [u32; 3] {
-    Vec3::from(p).to_array().map(f32::to_bits)
+    Vec3::from(p).to_array().map(|c| (c + 0.0).to_bits())
 }
 
 /// One piece of an edge before merging.
@@ -261,9 +291,18 @@ fn merge(
         // The line: its direction, and its point nearest the origin.
         let foot = p.start - axis * p.start.dot(axis);
         let q = |v: f64, step: f64| (v / step).round() as i64;
-        // Two planes meet in one line; a free edge's plane has many.
+        // Two planes meet in one line (whose pieces may still open to
+        // different quarters: the first face's direction tells them
+        // apart); a free edge's plane has many lines.
         let key = if p.groups[0] != p.groups[1] {
-            [0; 6]
+            [
+                q(p.face0.x, 1e-3),
+                q(p.face0.y, 1e-3),
+                q(p.face0.z, 1e-3),
+                0,
+                0,
+                0,
+            ]
         } else {
             [
                 q(axis.x, 1e-6),
@@ -472,13 +511,18 @@ mod tests {
         };
         let spin = Quat::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.4);
         // Floating, then standing on the floor (its bottom edges become
-        // junctions), then spun.
+        // junctions), then astride the floor's free edge at x = 5 (which
+        // becomes a junction too, though the floor did not move, as do
+        // the cube's bottom edges where they lie on the floor: one whole
+        // and the halves of two), then spun in the air (the floor's edge
+        // comes back).
         let moves = [
             (Quat::IDENTITY, Vec3::new(1.0, 2.0, 3.0)),
             (Quat::IDENTITY, Vec3::new(1.0, 2.0, 0.5)),
+            (Quat::IDENTITY, Vec3::new(5.0, 0.0, 0.5)),
             (spin, Vec3::new(-2.0, 1.0, 2.0)),
         ];
-        for (count, (rotation, shift)) in [16, 12, 16].into_iter().zip(moves) {
+        for (count, (rotation, shift)) in [16, 12, 14, 16].into_iter().zip(moves) {
             bvh.set_transform(1, RigidTransform::new(rotation, shift).unwrap())
                 .unwrap();
             surfaces.update_object(&bvh, 1);

@@ -54,8 +54,9 @@ const ANGLE_TOL: f64 = 1e-9;
 const LEG_END: f32 = 1e-5;
 /// Hits on an edge's own faces skipped per leg before it counts as blocked.
 const MAX_SKIPS: usize = 8;
-/// Alternating refinement of a two-edge path: at most this many rounds.
-const MAX_ROUNDS: usize = 200;
+/// Newton steps for a two-edge path: it converges in a handful; one that
+/// has not after this many is dropped.
+const MAX_ROUNDS: usize = 50;
 
 /// What a search looks for.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -261,10 +262,11 @@ fn first_order(
     })
 }
 
-/// The path around `edges[0]` then `edges[1]`: the edge points found by
-/// alternating Keller's law on each (the path length is convex in the two
-/// positions, so this converges to its minimum), then checked as in
-/// [`first_order`], the middle leg halved where it runs along a face.
+/// The path around `edges[0]` then `edges[1]`: the edge points where the
+/// path length, convex in the two positions, is least (Newton's method
+/// from the middle of both edges; a path that does not converge is
+/// dropped), then checked as in [`first_order`], the middle leg halved
+/// where it runs along a face both edges share.
 #[allow(clippy::too_many_arguments)]
 fn second_order(
     scene: EdgeScene<'_>,
@@ -277,16 +279,7 @@ fn second_order(
 ) -> Option<DiffractedPath> {
     let tol = ON_LINE * scene.surfaces.scale();
     let [e1, e2] = edges;
-    let mut at = [0.5 * e1.length, 0.5 * e2.length];
-    for _ in 0..MAX_ROUNDS {
-        let a2 = keller(e2, e1.point(at[0]), listener)?;
-        let a1 = keller(e1, source, e2.point(a2))?;
-        let moved = (a1 - at[0]).abs().max((a2 - at[1]).abs());
-        at = [a1, a2];
-        if moved <= tol {
-            break;
-        }
-    }
+    let at = shortest_touching(e1, e2, source, listener, tol)?;
     if !on_edge(e1, at[0], tol) || !on_edge(e2, at[1], tol) {
         return None;
     }
@@ -303,8 +296,11 @@ fn second_order(
     }
     let exit1 = air_angle(e1, out1.angle)?;
     let incidence2 = air_angle(e2, in2.angle)?;
+    // Along a face the two edges share, the first edge's wave already
+    // holds that face's reflection, which the second would add again.
     let on_face = |e: &Edge, a: f64| a <= 1e-6 || a >= e.wedge - 1e-6;
-    let grazing = if on_face(e1, exit1) || on_face(e2, incidence2) {
+    let shared = e1.groups.iter().any(|g| e2.groups.contains(g));
+    let grazing = if shared && on_face(e1, exit1) && on_face(e2, incidence2) {
         0.5
     } else {
         1.0
@@ -332,7 +328,10 @@ fn second_order(
             n: e2.wedge / pi,
             incidence: incidence2,
             exit,
-            distance: (r0 + r1) * r2 * sin2 * sin2 / (r0 + r1 + r2),
+            // The first edge's wave reaches the second with a line
+            // caustic on the first edge: across it, its radius is `r1`
+            // (exact for parallel edges, a door's jambs).
+            distance: r1 * r2 * sin2 * sin2 / (r1 + r2),
             sin_skew: sin2,
             grazing,
         },
@@ -346,6 +345,59 @@ fn second_order(
         length: r0 + r1 + r2,
         gain: band_gains(&events, speed, active).map(|g| (f64::from(g) * spreading) as f32),
     })
+}
+
+/// Where on the lines of `e1` and `e2` (distances along them) a path from
+/// `source` to `listener` touching both is shortest: Newton's method on
+/// the length, whose gradient and Hessian are those of three distances.
+fn shortest_touching(
+    e1: &Edge,
+    e2: &Edge,
+    source: DVec3,
+    listener: DVec3,
+    tol: f64,
+) -> Option<[f64; 2]> {
+    let (a, b) = (e1.axis, e2.axis);
+    let mut t = [0.5 * e1.length, 0.5 * e2.length];
+    for _ in 0..MAX_ROUNDS {
+        let (p1, p2) = (e1.point(t[0]), e2.point(t[1]));
+        let (v0, v1, v2) = (p1 - source, p1 - p2, p2 - listener);
+        let (r0, r1, r2) = (v0.length(), v1.length(), v2.length());
+        if r0 <= tol || r1 <= tol || r2 <= tol {
+            return None;
+        }
+        let (n0, n1, n2) = (v0 / r0, v1 / r1, v2 / r2);
+        let g = [a.dot(n0) + a.dot(n1), -b.dot(n1) + b.dot(n2)];
+        let h11 = (1.0 - a.dot(n0).powi(2)) / r0 + (1.0 - a.dot(n1).powi(2)) / r1;
+        let h22 = (1.0 - b.dot(n1).powi(2)) / r1 + (1.0 - b.dot(n2).powi(2)) / r2;
+        let h12 = (a.dot(n1) * b.dot(n1) - a.dot(b)) / r1;
+        let det = h11 * h22 - h12 * h12;
+        if !(det > 0.0 && det.is_finite()) {
+            return None;
+        }
+        let mut step = [
+            (h22 * g[0] - h12 * g[1]) / det,
+            (h11 * g[1] - h12 * g[0]) / det,
+        ];
+        // Halved while it lengthens the path: far from the minimum the
+        // quadratic model can overshoot.
+        let length = |t: [f64; 2]| {
+            let (p1, p2) = (e1.point(t[0]), e2.point(t[1]));
+            source.distance(p1) + p1.distance(p2) + p2.distance(listener)
+        };
+        let now = r0 + r1 + r2;
+        for _ in 0..32 {
+            if length([t[0] - step[0], t[1] - step[1]]) <= now {
+                break;
+            }
+            step = [0.5 * step[0], 0.5 * step[1]];
+        }
+        t = [t[0] - step[0], t[1] - step[1]];
+        if step[0].abs().max(step[1].abs()) <= tol {
+            return Some(t);
+        }
+    }
+    None
 }
 
 /// Whether nothing blocks the leg from `from` to `to` (a point on an
