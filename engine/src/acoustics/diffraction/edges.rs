@@ -203,21 +203,24 @@ fn object_edges(bvh: &SceneBvh, surfaces: &Surfaces, object: usize) -> Vec<Edge>
         .filter_map(|run| {
             let (a, b) = run[0].0;
             let [a, b] = [a, b].map(|k| Vec3::from_array(k.map(f32::from_bits)).as_dvec3());
-            let piece = wedge_piece(surfaces, a, b, run)?;
-            let own = |slot: usize| run.iter().any(|s| s.1 == slot);
-            (!surfaces.touches_other(bvh, (a + b) * 0.5, tol, own)).then_some(piece)
+            wedge_piece(bvh, surfaces, a, b, run, tol)
         })
         .collect();
     merge(bvh, surfaces, object, pieces, tol)
 }
 
 /// The wedge the faces around side `a`-`b` leave open to the air, if it
-/// diffracts.
+/// diffracts: the faces of its own triangles (`run`) and of any other
+/// surface meeting the side at its middle (a wall standing on a floor
+/// closes the floor's free edge; a mesh with a T-junction, or a corner of
+/// two objects, still has its wedge).
 fn wedge_piece(
+    bvh: &SceneBvh,
     surfaces: &Surfaces,
     a: DVec3,
     b: DVec3,
     run: &[(SideKey, usize, usize)],
+    tol: f64,
 ) -> Option<Piece> {
     use std::f64::consts::{PI, TAU};
     // One direction per line (first non-zero component positive), so that
@@ -227,7 +230,7 @@ fn wedge_piece(
     let (a, b) = if forward { (a, b) } else { (b, a) };
     let axis = (b - a).normalize_or_zero();
     // Each face's direction away from the edge, in its group's plane.
-    let faces: Vec<(DVec3, u32, usize)> = run
+    let mut faces: Vec<(DVec3, u32, usize)> = run
         .iter()
         .filter_map(|&(_, slot, opposite)| {
             let (corners, group) = surfaces.slot(slot);
@@ -238,6 +241,8 @@ fn wedge_piece(
             (v != DVec3::ZERO).then_some((v, group, slot))
         })
         .collect();
+    let own = |slot: usize| run.iter().any(|s| s.1 == slot);
+    faces.extend(surfaces.faces_at(bvh, (a + b) * 0.5, axis, tol, own)?);
     let first = faces.first()?.0;
     let turn = axis.cross(first);
     let mut angles: Vec<(f64, usize)> = faces
@@ -253,23 +258,32 @@ fn wedge_piece(
     let (gap, from, to) = (0..angles.len())
         .map(|i| {
             let j = (i + 1) % angles.len();
-            let mut gap = angles[j].0 - angles[i].0;
-            if gap <= 0.0 {
-                gap += TAU;
-            }
+            // The last gap wraps round; faces in one direction (a
+            // triangle's side lying on another face) leave none between.
+            let gap = if j == 0 {
+                angles[0].0 + TAU - angles[i].0
+            } else {
+                angles[j].0 - angles[i].0
+            };
             (gap, angles[i].1, angles[j].1)
         })
         .max_by(|x, y| x.0.total_cmp(&y.0))?;
     if gap <= PI + MIN_TURN {
         return None;
     }
+    // The triangle reported is the object's own (face 0's if it is).
+    let slot = if own(faces[from].2) {
+        faces[from].2
+    } else {
+        run[0].1
+    };
     Some(Piece {
         start: a,
         end: b,
         face0: faces[from].0,
         wedge: gap.min(TAU),
         groups: [faces[from].1, faces[to].1],
-        slot: faces[from].2,
+        slot,
     })
 }
 
@@ -439,6 +453,24 @@ mod tests {
         // No edge runs along the wall's foot.
         let foot = |e: &Edge| e.start.z == 0.0 && e.end.z == 0.0 && e.start.y == 0.0;
         assert!(!both.iter().any(foot));
+    }
+
+    /// Two plates of separate objects meeting at a right angle along a
+    /// side form one fold: each object sees the other's face there, so
+    /// each finds the wedge (a path through it is found twice and kept
+    /// once), not two free edges.
+    #[test]
+    fn a_corner_of_two_objects_is_a_wedge() {
+        let a = quad([[0., -2., 0.], [1., -2., 0.], [1., 0., 0.], [0., 0., 0.]]);
+        let b = quad([[0., 0., 0.], [1., 0., 0.], [1., 0., 2.], [0., 0., 2.]]);
+        let edges = edges_of(vec![a, b]);
+        let fold: Vec<&Edge> = edges.iter().filter(|e| e.wedge < TAU).collect();
+        assert_eq!(fold.len(), 2);
+        for e in &fold {
+            assert!((e.wedge - 1.5 * PI).abs() < 1e-6, "{}", e.wedge);
+            assert!(e.start.y == 0.0 && e.start.z == 0.0 && e.end.y == 0.0 && e.end.z == 0.0);
+        }
+        assert_eq!(edges.len(), 2 + 3 + 3);
     }
 
     /// A sheet folded by a right angle diffracts on its reflex side only;

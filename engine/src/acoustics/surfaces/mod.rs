@@ -288,25 +288,46 @@ impl Surfaces {
         best
     }
 
-    /// Whether a triangle other than those `own` accepts (flat slots) lies
-    /// within `tol` of `p`: another surface meeting a point of an edge.
-    pub(crate) fn touches_other(
+    /// The faces of other triangles (those `own` rejects, by flat slot)
+    /// meeting the line through `p` along unit `axis` at `p`, as their
+    /// directions away from the line (both ways for a face the line runs
+    /// across), with group and slot; `None` if one meets `p` at an angle
+    /// to the line (the line pierces it, or ends on it).
+    pub(crate) fn faces_at(
         &self,
         bvh: &SceneBvh,
         p: DVec3,
+        axis: DVec3,
         tol: f64,
         own: impl Fn(usize) -> bool,
-    ) -> bool {
-        let mut touched = false;
+    ) -> Option<Vec<(DVec3, u32, usize)>> {
+        let mut faces = Vec::new();
+        let mut pierced = false;
         self.slots_near(bvh, p, tol, |_, slot, _| {
-            if !touched && self.slot_group[slot] != NO_GROUP && !own(slot) {
-                let corners = &self.corners[slot];
-                let plane = &self.groups.get(self.slot_group[slot]).plane;
-                let d = plane.distance(p);
-                touched = d.abs() <= tol && contains(corners, p - d * plane.normal, tol);
+            let group = self.slot_group[slot];
+            if pierced || group == NO_GROUP || own(slot) {
+                return;
+            }
+            let corners = &self.corners[slot];
+            let plane = &self.groups.get(group).plane;
+            let d = plane.distance(p);
+            if d.abs() > tol || !contains(corners, p - d * plane.normal, tol) {
+                return;
+            }
+            if plane.normal.dot(axis).abs() > 1e-6 {
+                pierced = true;
+                return;
+            }
+            let across = axis.cross(plane.normal).normalize();
+            let sides = corners.map(|c| (c.as_dvec3() - p).dot(across));
+            if sides.iter().any(|&x| x > tol) {
+                faces.push((across, group, slot));
+            }
+            if sides.iter().any(|&x| x < -tol) {
+                faces.push((-across, group, slot));
             }
         });
-        touched
+        (!pierced).then_some(faces)
     }
 
     /// Calls `visit(object, flat slot, mesh-order triangle)` for every
