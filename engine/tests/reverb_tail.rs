@@ -499,7 +499,9 @@ fn open_floor_rain_matches_lamberts_integral() {
 
 /// A stream's cache keeps the rays' walk of a source and hands it to
 /// listeners that move: each moved listener's tail equals, to the bit,
-/// one traced from scratch for it, and only the first call walks.
+/// one traced from scratch for it, and only the first call walks. Walks
+/// are kept up to the cache's cap over all sources; the others are
+/// traced each time, with the same answers.
 #[test]
 fn a_kept_walk_gives_moving_listeners_the_tail_a_fresh_trace_does() {
     use frusta_engine::acoustics::{simulate_cached, BeamCache};
@@ -519,55 +521,81 @@ fn a_kept_walk_gives_moving_listeners_the_tail_a_fresh_trace_does() {
         }),
         ..Default::default()
     };
-    let source = Vec3::from_array(SOURCE.map(|v| v as f32));
-    // A walk over the cache's cap is traced each time, with the same answer.
-    let mut small = BeamCache::default().with_max_tail_events(1000);
-    for _ in 0..2 {
-        let listener = Vec3::new(7.0, 2.0, 1.2);
-        let r = simulate_cached(
-            &scene,
-            &[source],
-            &[listener],
-            &options,
-            &mut small,
-            None,
-            None,
-        )
-        .unwrap()
-        .remove(0);
-        let fresh = simulate(&scene, &[source], &[listener], &options)
-            .unwrap()
-            .remove(0);
-        assert!(!r.stats.tail.as_ref().unwrap().walk_reused);
-        assert_eq!(r.impulse_response, fresh.impulse_response);
-    }
+    let sources = [
+        Vec3::from_array(SOURCE.map(|v| v as f32)),
+        Vec3::new(8.0, 4.0, 2.0),
+    ];
+    // Each response with whether its walk was reused, after checking it
+    // against a fresh trace.
+    let run = |cache: &mut BeamCache, sources: &[Vec3], listener: Vec3| -> Vec<bool> {
+        let kept =
+            simulate_cached(&scene, sources, &[listener], &options, cache, None, None).unwrap();
+        let fresh = simulate(&scene, sources, &[listener], &options).unwrap();
+        kept.iter()
+            .zip(&fresh)
+            .map(|(k, f)| {
+                let (kt, ft) = (
+                    k.stats.tail.as_ref().unwrap(),
+                    f.stats.tail.as_ref().unwrap(),
+                );
+                assert_eq!(kt.reflections, ft.reflections);
+                assert_eq!(
+                    k.late_energy.as_ref().unwrap().bins,
+                    f.late_energy.as_ref().unwrap().bins
+                );
+                assert_eq!(k.impulse_response, f.impulse_response);
+                kt.walk_reused
+            })
+            .collect()
+    };
     let mut cache = BeamCache::default();
     for (step, x) in [7.0f32, 7.3, 7.6].into_iter().enumerate() {
-        let listener = Vec3::new(x, 2.0, 1.2);
-        let kept = simulate_cached(
-            &scene,
-            &[source],
-            &[listener],
-            &options,
-            &mut cache,
-            None,
-            None,
-        )
-        .unwrap()
-        .remove(0);
-        let fresh = simulate(&scene, &[source], &[listener], &options)
-            .unwrap()
-            .remove(0);
-        let tail = kept.stats.tail.as_ref().unwrap();
-        assert_eq!(tail.walk_reused, step > 0, "step {step}");
-        assert_eq!(
-            tail.reflections,
-            fresh.stats.tail.as_ref().unwrap().reflections
-        );
-        assert_eq!(
-            kept.late_energy.unwrap().bins,
-            fresh.late_energy.unwrap().bins
-        );
-        assert_eq!(kept.impulse_response, fresh.impulse_response);
+        let reused = run(&mut cache, &sources[..1], Vec3::new(x, 2.0, 1.2));
+        assert_eq!(reused, [step > 0], "step {step}");
     }
+    // Room for one walk only: the first source's is kept, the second's
+    // traced every time.
+    let one = cache_events(&sources[..1], &scene, &options);
+    let mut small = BeamCache::default().with_max_tail_events(one);
+    for (step, x) in [7.0f32, 7.3].into_iter().enumerate() {
+        let reused = run(&mut small, &sources, Vec3::new(x, 2.0, 1.2));
+        assert_eq!(reused, [step > 0, false], "step {step}");
+    }
+    // No room at all: nothing is kept.
+    let mut none = BeamCache::default().with_max_tail_events(1000);
+    for x in [7.0f32, 7.3] {
+        assert_eq!(
+            run(&mut none, &sources[..1], Vec3::new(x, 2.0, 1.2)),
+            [false]
+        );
+    }
+}
+
+/// About the smallest cap that keeps the first source's walk (doubled
+/// until a second call reuses it, then halved in on, to 1/64).
+fn cache_events(sources: &[Vec3], scene: &AcousticScene, options: &SimulationOptions) -> usize {
+    use frusta_engine::acoustics::{simulate_cached, BeamCache};
+    let listener = Vec3::new(7.0, 2.0, 1.2);
+    let holds = |cap: usize| {
+        let mut cache = BeamCache::default().with_max_tail_events(cap);
+        (0..2).any(|_| {
+            let r = simulate_cached(scene, sources, &[listener], options, &mut cache, None, None)
+                .unwrap();
+            r[0].stats.tail.as_ref().unwrap().walk_reused
+        })
+    };
+    let mut high = 1024;
+    while !holds(high) {
+        high *= 2;
+    }
+    let mut low = high / 2;
+    for _ in 0..6 {
+        let mid = (low + high) / 2;
+        if holds(mid) {
+            high = mid;
+        } else {
+            low = mid;
+        }
+    }
+    high
 }

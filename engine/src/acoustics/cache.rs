@@ -22,8 +22,8 @@ pub struct BeamCache {
     entries: Vec<([u64; 3], Beams)>,
     max_beams: usize,
     /// Source position, what its tail's walk depends on besides the key,
-    /// and the walk (`None`: more than [`Self::max_tail_events`] events,
-    /// so it is traced each time).
+    /// and the walk (`None`: it would have taken the kept walks past
+    /// [`Self::max_tail_events`] events in all, so it is traced each time).
     tails: Vec<([u64; 3], TailKey, Option<TailRecord>)>,
     max_tail_events: usize,
 }
@@ -39,8 +39,9 @@ struct TailKey {
 /// About 80 MB of beams per source.
 pub const DEFAULT_MAX_BEAMS: usize = 500_000;
 
-/// About 64 MiB of tail events per source (hall-10k's default tail walk
-/// has about 0.8 million).
+/// About 64 MiB of tail events over all sources of a call (hall-10k's
+/// default tail walk has about 0.8 million): a stream of many sources
+/// keeps the walks that fit and traces the others each time.
 pub const DEFAULT_MAX_TAIL_EVENTS: usize = 1 << 20;
 
 impl Default for BeamCache {
@@ -103,12 +104,12 @@ impl BeamCache {
         self.tails.retain(|(key, _, _)| wanted.contains(key));
     }
 
-    /// The most events a kept tail walk may hold.
+    /// The most events the kept tail walks may hold together.
     pub fn max_tail_events(&self) -> usize {
         self.max_tail_events
     }
 
-    /// This cache, keeping tail walks of at most `max_events` events.
+    /// This cache, keeping tail walks of at most `max_events` events in all.
     pub fn with_max_tail_events(mut self, max_events: usize) -> Self {
         self.max_tail_events = max_events;
         self
@@ -139,7 +140,14 @@ impl BeamCache {
             Some(i) => (i, true),
             None => {
                 self.tails.retain(|(s, _, _)| *s != at);
-                let record = record_tail(scene, source, input, self.max_tail_events, deadline)?;
+                let held: usize = self
+                    .tails
+                    .iter()
+                    .flat_map(|t| &t.2)
+                    .map(TailRecord::events)
+                    .sum();
+                let room = self.max_tail_events.saturating_sub(held);
+                let record = record_tail(scene, source, input, room, deadline)?;
                 self.tails.push((at, key, record));
                 (self.tails.len() - 1, false)
             }

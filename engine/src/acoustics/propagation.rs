@@ -690,6 +690,13 @@ mod tests {
                 },
             ),
             (
+                "diffraction_order",
+                SimulationOptions {
+                    diffraction_order: MAX_DIFFRACTION_ORDER + 1,
+                    ..Default::default()
+                },
+            ),
+            (
                 "1234",
                 SimulationOptions {
                     bands_hz: vec![1234.0],

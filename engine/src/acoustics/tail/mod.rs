@@ -266,9 +266,9 @@ pub struct TailRecord {
 }
 
 impl TailRecord {
-    /// Bytes held.
-    pub fn bytes(&self) -> usize {
-        self.chunks.iter().map(Vec::len).sum::<usize>() * std::mem::size_of::<walk::Recorded>()
+    /// Events held.
+    pub fn events(&self) -> usize {
+        self.chunks.iter().map(Vec::len).sum()
     }
 }
 
