@@ -39,6 +39,7 @@ pub mod error;
 pub mod geometry;
 pub mod query;
 pub mod scene;
+pub mod shadows;
 
 pub use deadline::Cancel;
 pub use error::{Cause, Error, Result};

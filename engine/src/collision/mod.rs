@@ -17,6 +17,7 @@ use glam::{DQuat, DVec3, Vec3, Vec3A};
 
 pub use contact::contact_points;
 pub use discrete::{object_contacts, object_proximity, self_contacts, world_contacts, Contact};
+pub(crate) use distance::closest_on_triangle;
 pub use distance::triangle_distance;
 pub use mesh_pairs::{mesh_contacts, mesh_self_contacts, Placed};
 pub use query::{all_pairs, CollisionQuery, CollisionTest, Found};

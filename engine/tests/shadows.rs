@@ -1,0 +1,318 @@
+//! Hard shadows: selective ray tracing against full ray tracing, pixel for
+//! pixel, on scenes whose shadows are hard for a shadow map (thin wires,
+//! slats, grazing light, lights inside geometry, moving lights and
+//! deforming occluders), and full ray tracing against the closed-form
+//! shadow of a box.
+
+mod common;
+
+use common::{grid_triangles, object};
+use frusta_engine::bvh::{BuildOptions, SceneBvh};
+use frusta_engine::geometry::shapes::cube;
+use frusta_engine::geometry::{RigidTransform, TriangleMesh};
+use frusta_engine::scene::{Material, Scene, SceneObject};
+use frusta_engine::shadows::{
+    gbuffer, hard_shadows, Camera, Method, PointLight, ShadowImage, ShadowOptions,
+};
+use glam::{DVec2, DVec3, Quat, Vec3};
+
+/// A floor `[-h, h]^2` at height `z`, `n x n` quads, facing up.
+fn floor(h: f32, z: f32, n: usize) -> TriangleMesh {
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let at = |k: usize| -h + 2.0 * h * k as f32 / n as f32;
+            positions.push(Vec3::new(at(i), at(j), z));
+        }
+    }
+    TriangleMesh::new(positions, grid_triangles(n, n)).unwrap()
+}
+
+/// A box of half sizes `half` centred at `at`, each face `n x n` quads.
+fn block(half: Vec3, at: Vec3, n: u32) -> TriangleMesh {
+    let c = cube(1.0, n);
+    common::deformed(&c, |p| p * half + at)
+}
+
+fn scene(objects: Vec<SceneObject>) -> SceneBvh {
+    let scene = Scene {
+        materials: vec![Material::uniform("m", 0.1).unwrap()],
+        objects,
+    };
+    SceneBvh::build(&scene, &BuildOptions::default())
+}
+
+fn still(name: &str, mesh: TriangleMesh) -> SceneObject {
+    object(name, mesh, RigidTransform::IDENTITY)
+}
+
+fn render(
+    world: &SceneBvh,
+    camera: &Camera,
+    light: Vec3,
+    method: Method,
+    size: u32,
+) -> ShadowImage {
+    let options = ShadowOptions {
+        method,
+        shadow_map_size: size,
+    };
+    hard_shadows(world, camera, &PointLight { position: light }, &options).unwrap()
+}
+
+fn wrong(a: &ShadowImage, b: &ShadowImage) -> usize {
+    a.visibility
+        .iter()
+        .zip(&b.visibility)
+        .filter(|(x, y)| x != y)
+        .count()
+}
+
+/// Selective against full: no pixel may differ. Returns both and the plain
+/// shadow map's count of wrong pixels.
+fn check(
+    world: &SceneBvh,
+    camera: &Camera,
+    light: Vec3,
+    size: u32,
+) -> (ShadowImage, ShadowImage, usize) {
+    let full = render(world, camera, light, Method::Full, size);
+    let selective = render(world, camera, light, Method::Selective, size);
+    let plain = render(world, camera, light, Method::ShadowMap, size);
+    assert_eq!(
+        wrong(&selective, &full),
+        0,
+        "selective differs from full ray tracing"
+    );
+    let plain_wrong = wrong(&plain, &full);
+    let shadowed = full.visibility.iter().filter(|v| **v == 0.0).count();
+    let lit = full.visibility.len() - shadowed;
+    eprintln!(
+        "{} x {}: {shadowed} shadowed, {lit} lit or empty; selective traced {:.1}% of {} receivers; shadow map wrong on {}",
+        camera.width,
+        camera.height,
+        100.0 * selective.stats.pip_fraction(),
+        full.stats.receivers,
+        plain_wrong
+    );
+    (selective, full, plain_wrong)
+}
+
+fn camera(at: Vec3, look: Vec3) -> Camera {
+    Camera::looking_at(at, look, 192, 144)
+}
+
+/// Signed distance of `p` outside the convex hull of `points` (negative
+/// inside), by gift wrapping in `f64`.
+fn hull_distance(points: &[DVec2], p: DVec2) -> f64 {
+    let start = points.iter().copied().fold(
+        points[0],
+        |a, b| if (b.x, b.y) < (a.x, a.y) { b } else { a },
+    );
+    let mut hull = vec![start];
+    loop {
+        let last = *hull.last().unwrap();
+        let mut next = points[0];
+        for &q in points {
+            let cross = (next - last).perp_dot(q - last);
+            if next == last
+                || cross < 0.0
+                || (cross == 0.0 && last.distance(q) > last.distance(next))
+            {
+                next = q;
+            }
+        }
+        if next == start {
+            break;
+        }
+        hull.push(next);
+    }
+    // Counter-clockwise hull: outside is where any edge sees p on its
+    // right.
+    (0..hull.len())
+        .map(|i| {
+            let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
+            -(b - a).perp_dot(p - a) / a.distance(b)
+        })
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
+#[test]
+fn a_box_over_a_floor_casts_its_exact_shadow() {
+    let half = Vec3::new(0.5, 0.4, 0.3);
+    let centre = Vec3::new(0.2, -0.1, 1.2);
+    let world = scene(vec![
+        still("floor", floor(4.0, 0.0, 6)),
+        still("box", block(half, centre, 2)),
+    ]);
+    let light = Vec3::new(0.6, 0.3, 3.5);
+    let cam = camera(Vec3::new(0.5, -5.0, 3.0), Vec3::new(0.0, 0.0, 0.3));
+    let (selective, full, plain_wrong) = check(&world, &cam, light, 256);
+    // The floor's shadow is the hull of the box's corners projected from
+    // the light onto z = 0.
+    let l = light.as_dvec3();
+    let corners: Vec<DVec2> = (0..8)
+        .map(|k| {
+            let s = DVec3::new(
+                [-1.0, 1.0][k & 1],
+                [-1.0, 1.0][(k >> 1) & 1],
+                [-1.0, 1.0][k >> 2],
+            );
+            let c = centre.as_dvec3() + s * half.as_dvec3();
+            let t = l.z / (l.z - c.z);
+            (l + (c - l) * t).truncate()
+        })
+        .collect();
+    let g = gbuffer(&world, &cam).unwrap();
+    let mut checked = 0;
+    for (r, v) in g.receivers.iter().zip(&full.visibility) {
+        let Some(r) = r else { continue };
+        if r.object != 0 {
+            continue;
+        }
+        let d = hull_distance(&corners, r.point.as_dvec3().truncate());
+        if d.abs() < 1e-4 {
+            continue;
+        }
+        assert_eq!(
+            *v,
+            if d < 0.0 { 0.0 } else { 1.0 },
+            "floor point {:?}",
+            r.point
+        );
+        checked += 1;
+    }
+    assert!(checked > 10_000, "{checked} floor pixels checked");
+    assert!(full.visibility.iter().filter(|v| **v == 0.0).count() > 1000);
+    assert!(
+        selective.stats.pip_fraction() < 0.3,
+        "{:?}",
+        selective.stats
+    );
+    assert!(
+        plain_wrong > 0,
+        "a 256 texel shadow map should miss some edge pixels"
+    );
+}
+
+#[test]
+fn a_thin_wire_and_slats_that_a_shadow_map_drops_are_traced() {
+    let mut objects = vec![still("floor", floor(4.0, 0.0, 4))];
+    // A 1 mm wire across the scene, and a row of 1 cm slats.
+    objects.push(still(
+        "wire",
+        block(Vec3::new(3.0, 0.0005, 0.0005), Vec3::new(0.0, 0.5, 1.0), 1),
+    ));
+    for k in 0..12 {
+        let x = -1.5 + 0.25 * k as f32;
+        objects.push(still(
+            &format!("slat{k}"),
+            block(Vec3::new(0.005, 1.0, 0.02), Vec3::new(x, -1.0, 1.5), 1),
+        ));
+    }
+    let world = scene(objects);
+    let cam = camera(Vec3::new(0.0, -4.5, 3.5), Vec3::new(0.0, -0.3, 0.0));
+    let (_, full, plain_wrong) = check(&world, &cam, Vec3::new(0.1, 0.2, 3.0), 128);
+    assert!(full.visibility.iter().filter(|v| **v == 0.0).count() > 200);
+    assert!(
+        plain_wrong > 100,
+        "the shadow map should lose the wire and slats: {plain_wrong}"
+    );
+}
+
+#[test]
+fn grazing_light_and_receivers_seen_edge_on() {
+    let world = scene(vec![
+        still("floor", floor(4.0, 0.0, 8)),
+        still("box", block(Vec3::splat(0.3), Vec3::new(0.0, 0.0, 0.3), 3)),
+    ]);
+    let cam = camera(Vec3::new(1.0, -4.0, 2.0), Vec3::ZERO);
+    // The light a millimetre above the floor, and exactly in its plane.
+    for light in [
+        Vec3::new(-3.9, 0.05, 0.001),
+        Vec3::new(-3.9, 0.05, 0.0),
+        Vec3::new(-10.0, 0.0, 0.3),
+    ] {
+        check(&world, &cam, light, 256);
+    }
+}
+
+#[test]
+fn lights_inside_and_on_geometry() {
+    // A closed room seen from inside, with a box in it; lights inside the
+    // box, inside the room, and on the box's face.
+    let room = common::deformed(&cube(1.0, 2), |p| Vec3::new(-p.x, p.y, p.z) * 3.0);
+    let world = scene(vec![
+        still("room", room),
+        still("box", block(Vec3::splat(0.5), Vec3::new(0.5, 0.5, -1.0), 2)),
+    ]);
+    let cam = camera(Vec3::new(-2.5, -2.5, 2.0), Vec3::new(0.5, 0.5, -1.5));
+    for light in [
+        Vec3::new(0.5, 0.5, -1.0),
+        Vec3::new(-1.0, 1.5, 2.0),
+        Vec3::new(0.5, 0.5, -0.5),
+    ] {
+        check(&world, &cam, light, 128);
+    }
+}
+
+#[test]
+fn a_moving_light_over_a_deforming_occluder() {
+    let base = block(Vec3::new(0.6, 0.2, 0.2), Vec3::new(0.0, 0.0, 1.0), 6);
+    let mut world = scene(vec![
+        still("floor", floor(3.0, 0.0, 5)),
+        still("bar", base.clone()),
+    ]);
+    let cam = camera(Vec3::new(0.0, -4.0, 3.0), Vec3::ZERO);
+    for frame in 0..4 {
+        let a = 0.4 * frame as f32;
+        let twisted = common::deformed(&base, |p| {
+            let q = Quat::from_rotation_x(a * p.x) * (p - Vec3::Z) + Vec3::Z;
+            q + Vec3::new(0.0, 0.0, 0.1 * (3.0 * p.x).sin() * frame as f32)
+        });
+        world
+            .update_mesh(1, &twisted, &vec![0; twisted.triangle_count()], 0.5)
+            .unwrap();
+        let light = Vec3::new(1.5 * a.cos(), 1.5 * a.sin(), 3.0);
+        check(&world, &cam, light, 192);
+    }
+}
+
+#[test]
+fn tiny_and_huge_scales_far_from_the_origin() {
+    for (scale, offset) in [
+        (1e-3f32, Vec3::ZERO),
+        (1e4, Vec3::ZERO),
+        (1.0, Vec3::new(3e4, -2e4, 1e4)),
+    ] {
+        let f = |p: Vec3| p * scale + offset;
+        let world = scene(vec![
+            still("floor", common::deformed(&floor(4.0, 0.0, 4), f)),
+            still(
+                "box",
+                common::deformed(&block(Vec3::splat(0.4), Vec3::new(0.0, 0.0, 1.0), 2), f),
+            ),
+        ]);
+        let cam = camera(f(Vec3::new(0.5, -5.0, 3.0)), f(Vec3::ZERO));
+        check(&world, &cam, f(Vec3::new(0.3, 0.6, 3.0)), 256);
+    }
+}
+
+#[test]
+fn a_rotated_instance_shadows_as_its_world_mesh_does() {
+    let transform = RigidTransform::new(
+        Quat::from_rotation_z(0.7) * Quat::from_rotation_x(0.3),
+        Vec3::new(0.3, 0.1, 1.4),
+    )
+    .unwrap();
+    let world = scene(vec![
+        still("floor", floor(4.0, 0.0, 4)),
+        object(
+            "box",
+            block(Vec3::new(0.5, 0.3, 0.2), Vec3::ZERO, 2),
+            transform,
+        ),
+    ]);
+    let cam = camera(Vec3::new(0.5, -5.0, 3.0), Vec3::ZERO);
+    check(&world, &cam, Vec3::new(-0.5, 0.4, 3.2), 256);
+}
