@@ -17,7 +17,9 @@
 //! and per-frame discrete collision with parry3d side by side;
 //! `frusta-bench reverb [--scene NAME] [--json] [--save DIR]` sets hybrid
 //! impulse responses beside exact image sources, Sabine and Eyring (see
-//! `reverb`).
+//! `reverb`); `frusta-bench shadows [--scene NAME] [--json] [--save DIR]`
+//! times hard shadows by shadow map, selective and full ray tracing (see
+//! `shadows`).
 
 mod bvh_bench;
 mod ccd;
@@ -29,6 +31,7 @@ mod rays;
 mod report;
 mod reverb;
 mod serve;
+mod shadows;
 mod soak;
 mod update;
 
@@ -72,6 +75,9 @@ enum Command {
     /// ISO 3382 parameters per band beside the exact image sources (box
     /// rooms), Sabine and Eyring, and the time of each part.
     Reverb(reverb::Args),
+    /// Hard shadows of a moving light per frame: the plain shadow map,
+    /// selective and full ray tracing side by side, wrong pixels counted.
+    Shadows(shadows::Args),
 }
 
 fn main() -> ExitCode {
@@ -85,6 +91,7 @@ fn main() -> ExitCode {
         Command::Ccd(args) => ccd::run(args),
         Command::Collide(args) => collide::run(args),
         Command::Reverb(args) => reverb::run(args),
+        Command::Shadows(args) => shadows::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -12,7 +12,7 @@ use frusta_engine::geometry::shapes::cube;
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::{Material, Scene, SceneObject};
 use frusta_engine::shadows::{
-    gbuffer, hard_shadows, Camera, Method, PointLight, ShadowImage, ShadowOptions,
+    hard_shadows, Camera, Method, PointLight, ShadowImage, ShadowOptions, ShadowScene,
 };
 use glam::{DVec2, DVec3, Quat, Vec3};
 
@@ -163,7 +163,7 @@ fn a_box_over_a_floor_casts_its_exact_shadow() {
             (l + (c - l) * t).truncate()
         })
         .collect();
-    let g = gbuffer(&world, &cam).unwrap();
+    let g = ShadowScene::new(&world).gbuffer(&cam).unwrap();
     let mut checked = 0;
     for (r, v) in g.receivers.iter().zip(&full.visibility) {
         let Some(r) = r else { continue };

@@ -92,11 +92,39 @@ impl Camera {
     /// Direction (not normalised) of the ray through the centre of pixel
     /// `(x, y)`, `y` down.
     pub fn pixel_direction(&self, x: u32, y: u32) -> DVec3 {
-        let (forward, right, up) = self.basis();
-        let f = self.focal();
-        let px = (x as f64 + 0.5 - self.width as f64 * 0.5) / f;
-        let py = (y as f64 + 0.5 - self.height as f64 * 0.5) / f;
-        forward + right * px - up * py
+        PixelRays::of(self).direction(x, y)
+    }
+}
+
+/// A camera's pixel rays, its basis worked out once.
+struct PixelRays {
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
+    /// `(x + 0.5 - offset.0) / focal` is the pixel's offset along `right`.
+    offset: (f64, f64),
+    focal: f64,
+}
+
+impl PixelRays {
+    fn of(camera: &Camera) -> Self {
+        let (forward, right, up) = camera.basis();
+        Self {
+            forward,
+            right,
+            up,
+            offset: (
+                camera.width as f64 * 0.5 - 0.5,
+                camera.height as f64 * 0.5 - 0.5,
+            ),
+            focal: camera.focal(),
+        }
+    }
+
+    fn direction(&self, x: u32, y: u32) -> DVec3 {
+        let px = (x as f64 - self.offset.0) / self.focal;
+        let py = (y as f64 - self.offset.1) / self.focal;
+        self.forward + self.right * px - self.up * py
     }
 }
 
@@ -110,8 +138,8 @@ pub struct Receiver {
     pub object: u32,
     /// Mesh triangle index.
     pub triangle: u32,
-    /// The connected surface of the scene the point lies on.
-    pub(super) part: u32,
+    /// The triangle's slot in the object's tree.
+    pub(super) slot: u32,
 }
 
 /// The receivers of a camera's pixels, row by row (`None`: the pixel sees
@@ -221,6 +249,7 @@ impl GBuffer {
                     );
                 }
             });
+        let rays = PixelRays::of(camera);
         let receivers = best
             .par_iter()
             .enumerate()
@@ -230,7 +259,7 @@ impl GBuffer {
                 }
                 let p = &projected[index as usize];
                 let (object, slot) = p.id;
-                let dir = camera.pixel_direction(i as u32 % w, i as u32 / w);
+                let dir = rays.direction(i as u32 % w, i as u32 / w);
                 receiver(occluders, object, slot, eye, dir)
             })
             .collect();
@@ -260,7 +289,7 @@ fn receiver(
         normal: n.as_vec3(),
         object,
         triangle: obj.mesh_triangle[slot as usize],
-        part: obj.part[slot as usize],
+        slot,
     })
 }
 

@@ -7,8 +7,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::camera::{Camera, GBuffer, Receiver};
-use super::light_map::{locate, FaceMap, LightMap, RAY_ERROR};
-use super::occluders::Occluders;
+use super::light_map::{locate, LightMap, Texel, RAY_ERROR};
+use super::occluders::{Occluders, Topology};
 use super::{Method, PointLight, ShadowOptions};
 use crate::bvh::SceneBvh;
 use crate::geometry::Ray;
@@ -70,12 +70,67 @@ enum Proof {
     Unknown,
 }
 
-/// Hard shadows of `light` seen through `camera`.
-///
-/// Every method shares the G-buffer; they differ only in how each
-/// receiver's visibility is decided, so their images are comparable pixel
-/// for pixel, and [`Method::Selective`] equals [`Method::Full`] on every one.
+/// Hard shadows of `light` seen through `camera` (a [`ShadowScene`] made
+/// for this call: keep one to answer many).
 pub fn hard_shadows(
+    world: &SceneBvh,
+    camera: &Camera,
+    light: &PointLight,
+    options: &ShadowOptions,
+) -> Result<ShadowImage> {
+    ShadowScene::new(world).hard_shadows(world, camera, light, options)
+}
+
+/// What shadow queries need of a world beyond its trees: its triangles in
+/// world space and how they join (welded edges, connected parts). It
+/// depends only on the geometry, so one serves every camera and light
+/// until an object moves or deforms.
+pub struct ShadowScene {
+    occluders: Occluders,
+    topology: Topology,
+    /// Time it took to make, in milliseconds.
+    pub build_ms: f64,
+}
+
+impl ShadowScene {
+    pub fn new(world: &SceneBvh) -> Self {
+        let start = Instant::now();
+        let occluders = Occluders::of(world);
+        let topology = Topology::of(world, &occluders);
+        Self {
+            occluders,
+            topology,
+            build_ms: ms(start),
+        }
+    }
+
+    /// The surface each pixel of `camera` sees (the G-buffer every method
+    /// shares).
+    pub fn gbuffer(&self, camera: &Camera) -> Result<GBuffer> {
+        camera.check()?;
+        Ok(GBuffer::render(camera, &self.occluders))
+    }
+
+    /// Hard shadows of `light` seen through `camera`; `world` must be the
+    /// one this was made from.
+    ///
+    /// Every method shares the G-buffer; they differ only in how each
+    /// receiver's visibility is decided, so their images are comparable
+    /// pixel for pixel, and [`Method::Selective`] equals [`Method::Full`]
+    /// on every one.
+    pub fn hard_shadows(
+        &self,
+        world: &SceneBvh,
+        camera: &Camera,
+        light: &PointLight,
+        options: &ShadowOptions,
+    ) -> Result<ShadowImage> {
+        hard_shadows_of(self, world, camera, light, options)
+    }
+}
+
+fn hard_shadows_of(
+    scene: &ShadowScene,
     world: &SceneBvh,
     camera: &Camera,
     light: &PointLight,
@@ -86,8 +141,8 @@ pub fn hard_shadows(
     options.check()?;
     let start = Instant::now();
     let mut stats = ShadowStats::default();
-    let occluders = Occluders::of(world);
-    let gbuffer = GBuffer::render(camera, &occluders);
+    let occluders = &scene.occluders;
+    let gbuffer = GBuffer::render(camera, occluders);
     stats.gbuffer_ms = ms(start);
     stats.receivers = gbuffer.receivers.iter().flatten().count() as u64;
     let l = light.position;
@@ -113,20 +168,38 @@ pub fn hard_shadows(
         }
         Method::Selective | Method::ShadowMap => {
             let t = Instant::now();
-            let map = light_map_for(&occluders, &gbuffer, l, options.shadow_map_size);
+            let plain = options.method == Method::ShadowMap;
+            let size = options.shadow_map_size;
+            let needed = gbuffer
+                .receivers
+                .par_iter()
+                .flatten()
+                .fold(
+                    || [false; 6],
+                    |mut acc, r| {
+                        acc[Spot::of(r, l, size).face] = true;
+                        acc
+                    },
+                )
+                .reduce(|| [false; 6], |a, b| std::array::from_fn(|i| a[i] | b[i]));
+            let topology = (!plain).then_some(&scene.topology);
+            let map = LightMap::build(occluders, topology, l.as_dvec3(), size, needed);
             stats.light_map_ms = ms(t);
             let t = Instant::now();
-            let plain = options.method == Method::ShadowMap;
             let proofs: Vec<Option<Proof>> = gbuffer
                 .receivers
                 .par_iter()
                 .map(|r| {
-                    r.as_ref().map(|r| {
-                        if plain {
-                            plain_test(&map, r)
-                        } else {
-                            prove(&map, r)
-                        }
+                    let r = r.as_ref()?;
+                    let spot = Spot::of(r, l, size);
+                    Some(match topology {
+                        None => plain_test(&map, &spot),
+                        Some(t) => prove(
+                            &map,
+                            &spot,
+                            r,
+                            t.objects[r.object as usize].part[r.slot as usize],
+                        ),
                     })
                 })
                 .collect();
@@ -160,76 +233,71 @@ pub fn hard_shadows(
     })
 }
 
-/// The surface each pixel of `camera` sees (the G-buffer every method
-/// shares).
-pub fn gbuffer(world: &SceneBvh, camera: &Camera) -> Result<GBuffer> {
-    camera.check()?;
-    Ok(GBuffer::render(camera, &Occluders::of(world)))
-}
-
 fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-/// The light map's faces the receivers fall on.
-fn light_map_for(occluders: &Occluders, gbuffer: &GBuffer, light: Vec3, size: u32) -> LightMap {
-    let l = light.as_dvec3();
-    let needed = gbuffer
-        .receivers
-        .par_iter()
-        .flatten()
-        .fold(
-            || [false; 6],
-            |mut acc, r| {
-                acc[locate(r.point.as_dvec3() - l, size).0] = true;
-                acc
-            },
-        )
-        .reduce(|| [false; 6], |a, b| std::array::from_fn(|i| a[i] | b[i]));
-    LightMap::build(occluders, l, size, needed)
+/// Where a receiver falls on the light map: face, texel and depth.
+struct Spot {
+    face: usize,
+    x: u32,
+    y: u32,
+    z: f64,
 }
 
-/// The texel of `r` on its face: index into the face's arrays, and depth.
-fn texel_of<'a>(map: &'a LightMap, r: &Receiver) -> Option<(&'a FaceMap, usize, f64)> {
-    let (face, x, y, z) = locate(r.point.as_dvec3() - map.light, map.size);
-    let last = map.size - 1;
-    let ix = (x.floor().max(0.0) as u32).min(last);
-    let iy = (y.floor().max(0.0) as u32).min(last);
-    let f = map.faces[face].as_ref()?;
-    Some((f, (iy * map.size + ix) as usize, z))
+impl Spot {
+    fn of(r: &Receiver, light: Vec3, size: u32) -> Self {
+        let (face, x, y, z) = locate(r.point.as_dvec3() - light.as_dvec3(), size);
+        let last = size - 1;
+        Self {
+            face,
+            x: (x.floor().max(0.0) as u32).min(last),
+            y: (y.floor().max(0.0) as u32).min(last),
+            z,
+        }
+    }
+
+    fn texel<'a>(&self, map: &'a LightMap) -> Option<&'a Texel> {
+        Some(map.faces[self.face].as_ref()?.at(self.x, self.y))
+    }
 }
 
-/// What the light map proves about `r` (see [`super::light_map`]).
-fn prove(map: &LightMap, r: &Receiver) -> Proof {
+/// What the light map proves about `r`, on `part`, at `spot` (see
+/// [`super::light_map`]). The map holds inverse depths: `f * d > 1` says
+/// the point of `f` is nearer than depth `d`.
+fn prove(map: &LightMap, spot: &Spot, r: &Receiver, part: u32) -> Proof {
     if map.unknown {
         return Proof::Unknown;
     }
-    let Some((f, i, z)) = texel_of(map, r) else {
+    let Some(f) = spot.texel(map) else {
         return Proof::Unknown;
     };
+    let z = spot.z;
     let x = r.point.as_dvec3();
     let scale = map.scale.max(x.abs().max_element());
     let slack = 1e-5 * z + RAY_ERROR * scale;
     let t_min = SHADOW_T_MIN as f64;
     // Depth falls linearly from z at the receiver to 0 at the light: the
     // traced range [t_min, 1 - t_min] spans depths z t_min .. z (1 - t_min).
-    if (f.cover_max[i] as f64) < z * (1.0 - t_min) - slack
-        && (f.cover_min[i] as f64) > z * t_min + slack
+    if f.cover_far as f64 * (z * (1.0 - t_min) - slack) > 1.0
+        && (f.cover_near as f64) * (z * t_min + slack) < 1.0
     {
         return Proof::Shadowed;
     }
-    let to_light = map.light - x;
-    let distance = to_light.length();
-    let cos = r.normal.as_dvec3().dot(to_light) / distance;
     // The receiver's own sheet, met by the traced ray within its rounding
-    // of the receiver, must fall before t_min.
-    let own = RAY_ERROR * scale / (distance * cos);
-    if f.first_part[i] == r.part
-        && f.first_sheet[i]
-        && f.first_back[i] as f64 > z + slack
-        && f.second[i] as f64 > z + slack
-        && cos > 1e-3
-        && own < t_min * 0.5
+    // of the receiver, must fall before t_min: with cos the angle between
+    // the normal and the light, RAY_ERROR scale / (distance cos) < t_min / 2,
+    // and cos > 1e-3.
+    let to_light = map.light - x;
+    let towards = r.normal.as_dvec3().dot(to_light);
+    let beyond = |near: f32| (near as f64) * (z + slack) < 1.0;
+    if f.first_part == part
+        && f.first_sheet
+        && beyond(f.first_back)
+        && beyond(f.second)
+        && towards > 0.0
+        && towards * towards > 1e-6 * to_light.length_squared()
+        && RAY_ERROR * scale < 0.5 * t_min * towards
     {
         return Proof::Lit;
     }
@@ -237,11 +305,10 @@ fn prove(map: &LightMap, r: &Receiver) -> Proof {
 }
 
 /// The plain shadow map's answer, with a relative depth bias.
-fn plain_test(map: &LightMap, r: &Receiver) -> Proof {
-    match texel_of(map, r) {
-        Some((f, i, z)) if z > f.centre[i] as f64 * 1.002 => Proof::Shadowed,
-        Some(_) => Proof::Lit,
-        None => Proof::Lit,
+fn plain_test(map: &LightMap, spot: &Spot) -> Proof {
+    match spot.texel(map) {
+        Some(f) if spot.z * f.centre as f64 > 1.002 => Proof::Shadowed,
+        _ => Proof::Lit,
     }
 }
 

@@ -40,7 +40,7 @@ mod occluders;
 mod raster;
 
 pub use camera::{Camera, GBuffer, Receiver, MAX_IMAGE_PIXELS};
-pub use hard::{gbuffer, hard_shadows, shadow_ray, ShadowImage, ShadowStats, SHADOW_T_MIN};
+pub use hard::{hard_shadows, shadow_ray, ShadowImage, ShadowScene, ShadowStats, SHADOW_T_MIN};
 
 use glam::Vec3;
 
@@ -92,7 +92,7 @@ impl Default for ShadowOptions {
     fn default() -> Self {
         Self {
             method: Method::Selective,
-            shadow_map_size: 1024,
+            shadow_map_size: 256,
         }
     }
 }

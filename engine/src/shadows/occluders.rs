@@ -11,10 +11,11 @@
 
 use std::collections::HashMap;
 
-use glam::{DQuat, DVec3, Vec3A};
+use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
 use crate::bvh::{Instance, SceneBvh};
+use crate::collision::world_corners;
 
 /// No triangle on that side of an edge.
 pub(super) const NONE: u32 = u32::MAX;
@@ -33,18 +34,26 @@ pub(super) struct Edge {
 pub(super) struct Part {
     /// Scene-wide number of the part.
     pub id: u32,
-    /// Range of [`ObjectOccluders::by_part`] holding its triangles.
+    /// Range of [`ObjectTopology::by_part`] holding its triangles.
     pub tris: std::ops::Range<usize>,
-    /// Range of [`ObjectOccluders::edges`] holding its edges.
+    /// Range of [`ObjectTopology::edges`] holding its edges.
     pub edges: std::ops::Range<usize>,
 }
 
-/// One object's triangles and edges.
+/// One object's triangles.
 pub(super) struct ObjectOccluders {
     /// World corners in leaf order.
     pub tris: Vec<[DVec3; 3]>,
     /// Mesh triangle index of each entry of `tris`.
     pub mesh_triangle: Vec<u32>,
+    /// Largest coordinate magnitude in object and world frames: the scale
+    /// of the `f32` rounding a ray in this object suffers.
+    pub scale: f64,
+}
+
+/// How one object's triangles join: what the light map's proofs need
+/// beyond the triangles.
+pub(super) struct ObjectTopology {
     /// Edges between two triangles that share two corners with opposite
     /// directions (a consistently wound manifold edge), and every other
     /// edge as a boundary: non-manifold and inconsistently wound edges can
@@ -55,9 +64,6 @@ pub(super) struct ObjectOccluders {
     pub parts: Vec<Part>,
     /// Scene-wide part of each triangle.
     pub part: Vec<u32>,
-    /// Largest coordinate magnitude in object and world frames: the scale
-    /// of the `f32` rounding a ray in this object suffers.
-    pub scale: f64,
 }
 
 /// Every object of a world.
@@ -79,8 +85,31 @@ impl Occluders {
     }
 }
 
-fn dvec(v: Vec3A) -> DVec3 {
-    DVec3::new(v.x as f64, v.y as f64, v.z as f64)
+/// Every object's topology, parts numbered over the scene.
+pub(super) struct Topology {
+    pub objects: Vec<ObjectTopology>,
+}
+
+impl Topology {
+    pub fn of(world: &SceneBvh, occluders: &Occluders) -> Self {
+        let mut objects: Vec<ObjectTopology> = world
+            .instances()
+            .par_iter()
+            .zip(&occluders.objects)
+            .map(|(inst, o)| ObjectTopology::of(inst.bvh().leaf_triangles(), &o.tris))
+            .collect();
+        let mut next = 0;
+        for o in &mut objects {
+            for p in &mut o.parts {
+                p.id += next;
+            }
+            for p in &mut o.part {
+                *p += next;
+            }
+            next += o.parts.len() as u32;
+        }
+        Self { objects }
+    }
 }
 
 /// The bits of a corner, with -0.0 as 0.0 (equal values weld).
@@ -93,20 +122,8 @@ impl ObjectOccluders {
     fn of(inst: &Instance) -> Self {
         let bvh = inst.bvh();
         let leaf = bvh.leaf_triangles();
-        let t = inst.to_world();
-        let q = t.rotation;
-        let rotation = DQuat::from_xyzw(q.x as f64, q.y as f64, q.z as f64, q.w as f64).normalize();
-        let translation = DVec3::new(
-            t.translation.x as f64,
-            t.translation.y as f64,
-            t.translation.z as f64,
-        );
-        let to_world = |v: Vec3A| rotation * dvec(v) + translation;
-        let tris: Vec<[DVec3; 3]> = leaf
-            .iter()
-            .map(|c| [to_world(c[0]), to_world(c[1]), to_world(c[2])])
-            .collect();
-        let mut scale = translation.abs().max_element();
+        let tris: Vec<[DVec3; 3]> = leaf.iter().map(world_corners(inst.to_world())).collect();
+        let mut scale = inst.to_world().translation.abs().max_element() as f64;
         for (c, w) in leaf.iter().zip(&tris) {
             for i in 0..3 {
                 scale = scale
@@ -114,7 +131,17 @@ impl ObjectOccluders {
                     .max(w[i].abs().max_element());
             }
         }
-        let mut edges = welded_edges(leaf, &tris);
+        Self {
+            tris,
+            mesh_triangle: bvh.prim_ids().to_vec(),
+            scale,
+        }
+    }
+}
+
+impl ObjectTopology {
+    fn of(leaf: &[[Vec3A; 3]], tris: &[[DVec3; 3]]) -> Self {
+        let mut edges = welded_edges(leaf, tris);
         let part = components(tris.len(), &edges);
         edges.sort_unstable_by_key(|e| part[e.tris[0] as usize]);
         let mut by_part: Vec<u32> = (0..tris.len() as u32).collect();
@@ -133,13 +160,10 @@ impl ObjectOccluders {
             })
             .collect();
         Self {
-            tris,
-            mesh_triangle: bvh.prim_ids().to_vec(),
             edges,
             by_part,
             parts,
             part,
-            scale,
         }
     }
 }
@@ -257,6 +281,10 @@ mod tests {
     use crate::geometry::shapes::cube;
     use crate::scene::{Material, RawMesh, Scene};
 
+    fn topology(world: &SceneBvh) -> Topology {
+        Topology::of(world, &Occluders::of(world))
+    }
+
     fn world_of(positions: Vec<glam::Vec3>, triangles: Vec<[u32; 3]>) -> SceneBvh {
         let raw = RawMesh {
             positions,
@@ -271,8 +299,8 @@ mod tests {
     fn a_closed_cube_has_only_shared_edges() {
         let c = cube(1.0, 2);
         let world = world_of(c.positions().to_vec(), c.triangles().to_vec());
-        let o = &Occluders::of(&world).objects[0];
-        assert_eq!(o.edges.len(), o.tris.len() * 3 / 2);
+        let o = &topology(&world).objects[0];
+        assert_eq!(o.edges.len(), c.triangle_count() * 3 / 2);
         assert!(o.edges.iter().all(|e| e.tris[1] != NONE));
         assert_eq!(o.parts.len(), 1);
     }
@@ -286,7 +314,7 @@ mod tests {
         positions.extend(c.positions().iter().map(|p| *p + glam::Vec3::X * 3.0));
         triangles.extend(c.triangles().iter().map(|t| t.map(|i| i + n)));
         let world = world_of(positions, triangles);
-        let o = &Occluders::of(&world).objects[0];
+        let o = &topology(&world).objects[0];
         assert_eq!(o.parts.len(), 2);
         for p in &o.parts {
             assert_eq!(p.tris.len(), 12);
@@ -307,12 +335,12 @@ mod tests {
         // Two triangles over the same edge, unwelded (corners repeated).
         let positions = vec![p[0], p[1], p[2], p[1], p[3], p[2]];
         let world = world_of(positions.clone(), vec![[0, 1, 2], [3, 4, 5]]);
-        let o = &Occluders::of(&world).objects[0];
+        let o = &topology(&world).objects[0];
         assert_eq!(o.edges.iter().filter(|e| e.tris[1] != NONE).count(), 1);
         // The second wound the other way: the edge runs the same way in
         // both, so it is a boundary on each side.
         let world = world_of(positions, vec![[0, 1, 2], [3, 5, 4]]);
-        let o = &Occluders::of(&world).objects[0];
+        let o = &topology(&world).objects[0];
         assert!(o.edges.iter().all(|e| e.tris[1] == NONE));
         assert_eq!(o.edges.len(), 6);
     }

@@ -54,23 +54,24 @@ impl Polygon {
     }
 }
 
-/// Calls `visit(x, y)` for every texel of an `size x size` grid whose
+/// Calls `visit(y, x0, x1)` for every row of the texels `bounds` (`[x0,
+/// y0, x1, y1]`, inclusive) with the inclusive range of texels whose
 /// square grown by `margin` meets the convex polygon `corners` (texel
 /// coordinates, either winding; two corners make a segment).
 pub(super) fn conservative(
     corners: &[[f64; 2]],
     margin: f64,
-    size: u32,
-    mut visit: impl FnMut(u32, u32),
+    bounds: [u32; 4],
+    mut visit: impl FnMut(u32, u32, u32),
 ) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for c in corners {
         lo = lo.min(c[1]);
         hi = hi.max(c[1]);
     }
-    let last = size as f64 - 1.0;
-    let first_row = (lo - margin).floor().max(0.0);
-    let last_row = (hi + margin).floor().min(last);
+    let [bx0, by0, bx1, by1] = bounds.map(|b| b as f64);
+    let first_row = (lo - margin).floor().max(by0);
+    let last_row = (hi + margin).floor().min(by1);
     if first_row.partial_cmp(&last_row).is_none_or(|o| o.is_gt()) {
         return;
     }
@@ -103,14 +104,12 @@ pub(super) fn conservative(
                 x1 = x1.max(x);
             }
         }
-        let first = (x0 - margin).floor().max(0.0);
-        let last_x = (x1 + margin).floor().min(last);
+        let first = (x0 - margin).floor().max(bx0);
+        let last_x = (x1 + margin).floor().min(bx1);
         if first.partial_cmp(&last_x).is_none_or(|o| o.is_gt()) {
             continue;
         }
-        for x in first as u32..=last_x as u32 {
-            visit(x, y);
-        }
+        visit(y, first as u32, last_x as u32);
     }
 }
 
@@ -120,7 +119,9 @@ mod tests {
 
     fn texels(corners: &[[f64; 2]], margin: f64) -> Vec<(u32, u32)> {
         let mut out = Vec::new();
-        conservative(corners, margin, 16, |x, y| out.push((x, y)));
+        conservative(corners, margin, [0, 0, 15, 15], |y, x0, x1| {
+            out.extend((x0..=x1).map(|x| (x, y)))
+        });
         out
     }
 

@@ -1,0 +1,246 @@
+//! One cube face of the light map: how world points land on it (frame,
+//! clipping to the guarded frustum, margins), and a clipped triangle set
+//! up for its texels.
+
+use glam::DVec3;
+
+use super::{BASE_MARGIN, GUARD_TEXELS, RAY_ERROR};
+use crate::shadows::raster::Polygon;
+
+/// Cube face `index` (0..6): depth along `+axis` (even) or `-axis` (odd).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Face {
+    axis: usize,
+    sign: f64,
+}
+
+impl Face {
+    pub fn new(index: usize) -> Self {
+        Self {
+            axis: index / 2,
+            sign: if index % 2 == 0 { 1.0 } else { -1.0 },
+        }
+    }
+
+    /// `d` (from the light) in face coordinates: image axes, then depth.
+    pub fn frame(&self, d: DVec3) -> DVec3 {
+        let a = d.to_array();
+        DVec3::new(
+            a[(self.axis + 1) % 3],
+            a[(self.axis + 2) % 3],
+            self.sign * a[self.axis],
+        )
+    }
+}
+
+/// The face, continuous texel coordinates and depth of direction `d` from
+/// the light.
+pub(crate) fn locate(d: DVec3, size: u32) -> (usize, f64, f64, f64) {
+    let a = d.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    let index = axis * 2 + (d.to_array()[axis] < 0.0) as usize;
+    let f = Face::new(index).frame(d);
+    let half = size as f64 * 0.5;
+    (
+        index,
+        (f.x / f.z + 1.0) * half,
+        (f.y / f.z + 1.0) * half,
+        f.z,
+    )
+}
+
+/// How world points land on a face.
+pub(super) struct Projection {
+    pub light: DVec3,
+    pub face: Face,
+    pub size: u32,
+    pub near: f64,
+    pub scale: f64,
+}
+
+impl Projection {
+    pub fn texel(&self, c: DVec3) -> [f64; 2] {
+        let half = self.size as f64 * 0.5;
+        [(c.x / c.z + 1.0) * half, (c.y / c.z + 1.0) * half]
+    }
+
+    /// Margin in texels for geometry no nearer than depth `z`: the rays'
+    /// rounding `e` moves a point's image by up to `3 e / z` (`u = x / z`
+    /// with `|u| <= 1.1`, both image axes).
+    pub fn margin(&self, z: f64) -> f64 {
+        BASE_MARGIN + 3.0 * RAY_ERROR * self.scale / z * self.size as f64 * 0.5
+    }
+
+    /// `e` (face coordinates) is in front of the near plane and within the
+    /// face's frustum grown by the guard: one side value per plane, all
+    /// non-negative inside.
+    fn sides(&self, e: DVec3) -> [f64; 5] {
+        let g = 1.0 + GUARD_TEXELS * 2.0 / self.size as f64;
+        [
+            e.z - self.near,
+            g * e.z - e.x,
+            g * e.z + e.x,
+            g * e.z - e.y,
+            g * e.z + e.y,
+        ]
+    }
+
+    /// The part of a triangle (face coordinates) the face can see.
+    pub fn clip(&self, c: &[DVec3; 3]) -> Option<Polygon> {
+        let mut poly = Polygon::triangle(c);
+        for k in 0..5 {
+            poly = poly.clipped(|e| self.sides(e)[k])?;
+        }
+        Some(poly)
+    }
+
+    /// The part of a segment the face can see.
+    pub fn clip_segment(&self, [a, b]: [DVec3; 2]) -> Option<[DVec3; 2]> {
+        let (sa, sb) = (self.sides(a), self.sides(b));
+        let (mut s0, mut s1) = (0.0f64, 1.0f64);
+        for k in 0..5 {
+            if sa[k] < 0.0 && sb[k] < 0.0 {
+                return None;
+            }
+            let at = sa[k] / (sa[k] - sb[k]);
+            if sa[k] < 0.0 {
+                s0 = s0.max(at);
+            } else if sb[k] < 0.0 {
+                s1 = s1.min(at);
+            }
+        }
+        (s0 <= s1).then(|| [a + (b - a) * s0, a + (b - a) * s1])
+    }
+}
+
+/// One clipped triangle on a face, set up for its texels: corners, margin,
+/// inverse depth on its plane and its edges' lines, all in texel units.
+pub(super) struct TriangleRaster {
+    corners: [[f64; 2]; 8],
+    count: usize,
+    pub margin: f64,
+    /// `1/z = plane[0] + plane[1] x + plane[2] y`; zeros for a plane
+    /// through the light, whose corners alone bound it.
+    pub plane: [f64; 3],
+    spread: f64,
+    /// Inverse depths of the farthest and nearest corner.
+    corner_far: f64,
+    corner_near: f64,
+    /// Each edge's line `a x + b y + c`, unit normal pointing inwards; all
+    /// zero for a triangle seen edge on, whose centre tests are ambiguous.
+    edges: [[f64; 3]; 8],
+}
+
+impl TriangleRaster {
+    pub fn new(poly: &Polygon, c: &[DVec3; 3], p: &Projection) -> Self {
+        let count = poly.corners().len();
+        let mut corners = [[0.0; 2]; 8];
+        let (mut z_lo, mut z_hi) = (f64::INFINITY, 0.0f64);
+        for (j, v) in poly.corners().iter().enumerate() {
+            corners[j] = p.texel(*v);
+            z_lo = z_lo.min(v.z);
+            z_hi = z_hi.max(v.z);
+        }
+        let margin = p.margin(z_lo);
+        // 1/z on the plane n . e = k is n . (u, v, 1) / k with
+        // u = 2x/size - 1: affine in texel coordinates.
+        let normal = (c[1] - c[0]).cross(c[2] - c[0]);
+        let k = normal.dot(c[0]);
+        let to_unit = 2.0 / p.size as f64;
+        let plane = if k != 0.0 {
+            [
+                (normal.z - normal.x - normal.y) / k,
+                normal.x * to_unit / k,
+                normal.y * to_unit / k,
+            ]
+        } else {
+            [0.0; 3]
+        };
+        let area: f64 = (0..count)
+            .map(|i| {
+                let (a, b) = (corners[i], corners[(i + 1) % count]);
+                a[0] * b[1] - a[1] * b[0]
+            })
+            .sum();
+        let mut edges = [[0.0; 3]; 8];
+        if area != 0.0 && area.is_finite() {
+            let o = area.signum();
+            for (j, e) in edges.iter_mut().enumerate().take(count) {
+                let (a, b) = (corners[j], corners[(j + 1) % count]);
+                let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
+                let len = ex.hypot(ey);
+                *e = [
+                    -o * ey / len,
+                    o * ex / len,
+                    o * (ey * a[0] - ex * a[1]) / len,
+                ];
+            }
+        }
+        Self {
+            corners,
+            count,
+            margin,
+            spread: (plane[1].abs() + plane[2].abs()) * (0.5 + margin),
+            plane,
+            corner_far: 1.0 / z_hi,
+            corner_near: 1.0 / z_lo,
+            edges,
+        }
+    }
+
+    pub fn corners(&self) -> &[[f64; 2]] {
+        &self.corners[..self.count]
+    }
+
+    /// Texel box `[x0, y0, x1, y1]` of the corners grown by the margin.
+    pub fn texel_box(&self) -> [f64; 4] {
+        texel_box(self.corners(), self.margin)
+    }
+
+    /// Bounds on the inverse depth of the triangle over the grown texel
+    /// centred at `(cx, cy)`, as `f32` (nearest, farthest).
+    #[inline]
+    pub fn inverse_depths(&self, cx: f64, cy: f64) -> (f32, f32) {
+        let at = self.plane[0] + self.plane[1] * cx + self.plane[2] * cy;
+        let near = self.corner_near.min(at + self.spread);
+        let far = self.corner_far.max(at - self.spread);
+        // Crossed only by rounding, where the plane's range just touches
+        // the corners'.
+        (near.max(far) as f32, far.min(near) as f32)
+    }
+
+    /// Signed distance in texels from `(cx, cy)` to the nearest edge,
+    /// positive inside (never positive for a triangle seen edge on).
+    #[inline]
+    pub fn centre_distance(&self, cx: f64, cy: f64) -> f64 {
+        self.edges[..self.count]
+            .iter()
+            .map(|e| e[0] * cx + e[1] * cy + e[2])
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// Texel box `[x0, y0, x1, y1]` of `corners` grown by `margin`.
+pub(super) fn texel_box(corners: &[[f64; 2]], margin: f64) -> [f64; 4] {
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for c in corners {
+        b = [
+            b[0].min(c[0]),
+            b[1].min(c[1]),
+            b[2].max(c[0]),
+            b[3].max(c[1]),
+        ];
+    }
+    [b[0] - margin, b[1] - margin, b[2] + margin, b[3] + margin]
+}
