@@ -15,6 +15,7 @@ pub mod problem;
 pub mod rays;
 pub mod scenes;
 pub mod schemas;
+pub mod shadows;
 pub mod stream;
 
 pub use problem::Problem;

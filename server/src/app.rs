@@ -24,7 +24,8 @@ use crate::error::ApiError;
 use crate::metrics::{self, Metrics};
 use crate::registry::Registry;
 use crate::routes::{
-    collisions, health, impulse_responses, materials, objects, occlusion, rays, scenes, stream,
+    collisions, health, impulse_responses, materials, objects, occlusion, rays, scenes, shadows,
+    stream,
 };
 
 #[derive(Clone)]
@@ -228,6 +229,7 @@ pub fn router(state: AppState) -> Router {
         .routes(
             routes!(occlusion::check).layer(axum::extract::DefaultBodyLimit::max(rays::BODY_LIMIT)),
         )
+        .routes(routes!(shadows::render))
         .layer(from_fn_with_state(state.clone(), auth::authenticate))
         .split_for_parts();
     utoipa::Modify::modify(&ProblemResponses, &mut api);

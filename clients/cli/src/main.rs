@@ -9,6 +9,7 @@ mod ir;
 mod progress;
 mod remote;
 mod report;
+mod shadows;
 mod simulation_args;
 mod trace;
 mod vec3;
@@ -72,6 +73,9 @@ enum Command {
     /// Which triangles touch, come within a distance, or meet while objects
     /// move, here or (with `--scene-id`) on the server.
     Collide(Box<collide::CollideArgs>),
+    /// Where a point light reaches in a camera's view, as a PNG, here or
+    /// (with `--scene-id`) on the server.
+    Shadows(Box<shadows::ShadowArgs>),
     /// The server's scenes (needs `--server`).
     Scenes {
         #[command(subcommand)]
@@ -127,6 +131,10 @@ fn main() -> ExitCode {
         Command::Collide(args) => match &args.scene_id {
             Some(id) => server().and_then(|s| collide::run_remote(&s, id, args)),
             None => collide::run(args),
+        },
+        Command::Shadows(args) => match &args.scene_id {
+            Some(id) => server().and_then(|s| shadows::run_remote(&s, id, args)),
+            None => shadows::run(args),
         },
         Command::Scenes { command } => server().and_then(|s| remote::scenes::run(&s, command)),
         Command::Stream(args) => server().and_then(|s| remote::stream::run(&s, args)),

@@ -387,3 +387,63 @@ fn collide_answers_alike_here_and_on_the_server() {
         "{bad:?}"
     );
 }
+
+/// A room with a panel hanging in it.
+const PANEL_ROOM: &str = r#"{
+  "materials": {"walls": {"absorption": 0.1}},
+  "objects": [
+    {"name": "room", "material": "walls",
+     "mesh": {"box_room": {"min": [0, 0, 0], "max": [10, 6, 3]}}},
+    {"name": "panel", "material": "walls",
+     "mesh": {"vertices": [[4, 1, 0.5], [4, 2, 0.5], [4, 2, 2], [4, 1, 2]],
+              "triangles": [[0, 1, 2], [0, 2, 3]]}}
+  ]
+}"#;
+
+#[test]
+fn shadows_draw_the_same_png_here_and_on_the_server() {
+    let server = Server::start();
+    let doc = server.file("panel-room.json", PANEL_ROOM);
+    let id = stdout(&server.frusta(&["scenes", "upload", path_str(&doc)]));
+    let view = [
+        "shadows",
+        "--camera",
+        "1,1,2.5",
+        "--look-at",
+        "6,4,0",
+        "--light",
+        "5,3,2.8",
+        "--width",
+        "48",
+        "--height",
+        "32",
+        "--out",
+    ];
+    let (here, there) = (
+        server.dir.0.join("here.png"),
+        server.dir.0.join("there.png"),
+    );
+    stdout(&server.frusta(&[&view[..], &[path_str(&here), "--scene", path_str(&doc)]].concat()));
+    stdout(&server.frusta(&[&view[..], &[path_str(&there), "--scene-id", id.trim()]].concat()));
+    let bytes = std::fs::read(&here).expect("PNG here");
+    assert_eq!(bytes, std::fs::read(&there).expect("PNG there"));
+    let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
+        .read_info()
+        .expect("a PNG");
+    let mut pixels = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut pixels).expect("a frame");
+    assert_eq!((info.width, info.height), (48, 32));
+    let pixels = &pixels[..info.buffer_size()];
+    assert!(
+        pixels.contains(&0) && pixels.contains(&255),
+        "the panel casts a shadow"
+    );
+    let mut flat = view.to_vec();
+    flat[8] = "0";
+    let bad = server.frusta(&[&flat[..], &[path_str(&here), "--scene-id", id.trim()]].concat());
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("camera.width"),
+        "{bad:?}"
+    );
+}

@@ -9,6 +9,7 @@ mod error;
 mod http;
 mod impulse_responses;
 mod scenes;
+mod shadows;
 mod stream;
 
 pub use error::Error;

@@ -9,6 +9,7 @@ pub mod objects;
 pub mod occlusion;
 pub mod rays;
 pub mod scenes;
+pub mod shadows;
 pub mod stream;
 
 #[cfg(test)]

@@ -1,0 +1,126 @@
+//! `frusta shadows`: where a point light reaches in a camera's view, as a
+//! greyscale PNG (255 lit, 0 shadowed), computed here or (with
+//! `--scene-id`) on the server, with the same image either way.
+
+use std::error::Error;
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use frusta_client::api::shadows::{
+    png, png_of_levels, CameraSpec, LightSpec, ShadowMethod, ShadowRequest,
+};
+use frusta_client::Client;
+use frusta_engine::bvh::{BuildOptions, SceneBvh};
+use frusta_engine::scene::Scene;
+use frusta_engine::shadows::hard_shadows;
+use glam::Vec3;
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Method {
+    /// Exact: rays only where the light map cannot prove a pixel.
+    Selective,
+    /// A ray per pixel.
+    Full,
+    /// The plain shadow map: fast, wrong near edges.
+    ShadowMap,
+}
+
+#[derive(clap::Args)]
+pub struct ShadowArgs {
+    /// Scene file (`.json`, `.obj`, `.gltf`, `.glb`), for an image made here.
+    #[arg(
+        long,
+        conflicts_with = "scene_id",
+        required_unless_present = "scene_id"
+    )]
+    scene: Option<PathBuf>,
+    /// A scene on the server (needs `--server`).
+    #[arg(long)]
+    pub scene_id: Option<String>,
+    /// Camera position `X,Y,Z`.
+    #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
+    camera: Vec3,
+    /// Point the camera looks at, `X,Y,Z`.
+    #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
+    look_at: Vec3,
+    /// Camera up, `X,Y,Z`.
+    #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true, default_value = "0,0,1")]
+    up: Vec3,
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 60.0)]
+    fov: f32,
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    #[arg(long, default_value_t = 480)]
+    height: u32,
+    /// Point light position `X,Y,Z`.
+    #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
+    light: Vec3,
+    #[arg(long, value_enum, default_value = "selective")]
+    method: Method,
+    /// Side of each light-map face, texels.
+    #[arg(long)]
+    shadow_map_size: Option<u32>,
+    /// The PNG written.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+impl ShadowArgs {
+    fn request(&self) -> ShadowRequest {
+        ShadowRequest {
+            camera: CameraSpec {
+                position: self.camera.to_array(),
+                look_at: self.look_at.to_array(),
+                up: self.up.to_array(),
+                fov_y_deg: self.fov,
+                width: self.width,
+                height: self.height,
+            },
+            light: LightSpec {
+                position: self.light.to_array(),
+            },
+            method: match self.method {
+                Method::Selective => ShadowMethod::Selective,
+                Method::Full => ShadowMethod::Full,
+                Method::ShadowMap => ShadowMethod::ShadowMap,
+            },
+            shadow_map_size: self.shadow_map_size,
+        }
+    }
+}
+
+pub fn run(args: &ShadowArgs) -> Result<(), Box<dyn Error>> {
+    let path = args
+        .scene
+        .as_ref()
+        .ok_or("give --scene FILE or --scene-id ID")?;
+    let scene = Scene::load(path)?;
+    let world = SceneBvh::build(&scene, &BuildOptions::default());
+    let (camera, light, options) = args.request().engine();
+    let image = hard_shadows(&world, &camera, &light, &options)?;
+    std::fs::write(&args.out, png(&image)?)?;
+    report(
+        &args.out,
+        image.stats.receivers,
+        image.stats.pip_pixels,
+        image.stats.total_ms,
+    );
+    Ok(())
+}
+
+pub fn run_remote(client: &Client, id: &str, args: &ShadowArgs) -> Result<(), Box<dyn Error>> {
+    let answer = client.shadows(id, &args.request())?;
+    let bytes = png_of_levels(answer.width, answer.height, &answer.visibility)?;
+    std::fs::write(&args.out, bytes)?;
+    let s = &answer.stats;
+    report(&args.out, s.receivers, s.pip_pixels, s.total_ms);
+    Ok(())
+}
+
+fn report(out: &std::path::Path, receivers: u64, traced: u64, ms: f64) {
+    eprintln!(
+        "{}: {receivers} pixels see a surface, {traced} traced, {ms:.1} ms",
+        out.display()
+    );
+}

@@ -1,0 +1,168 @@
+//! `POST /v1/scenes/{id}/shadows`: hard shadows of a point light seen
+//! through a camera, by selective ray tracing on the scene's hierarchy.
+
+use axum::extract::{Path, State};
+use axum::http::{header, HeaderMap};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use frusta_api::schemas::Binary;
+use frusta_api::shadows::{png, ShadowRequest, ShadowResponse};
+use frusta_engine::shadows::hard_shadows;
+
+use crate::app::AppState;
+use crate::error::{ApiError, JsonBody, Problem};
+
+/// Most pixels one request may ask for (1024 x 1024; a larger view is
+/// asked for in tiles).
+pub const MAX_PIXELS: u64 = 1024 * 1024;
+/// Largest light-map face a request may ask for.
+pub const MAX_SHADOW_MAP_SIZE: u32 = 1024;
+
+/// Body: `{"camera": {"position", "look_at", "width", "height", ...},
+/// "light": {"position"}, "method"}`. Send `Accept: image/png` for a grey
+/// image (255 lit, 0 shadowed), else JSON with the same levels and stats.
+#[utoipa::path(post, path = "/v1/scenes/{id}/shadows", tag = "queries",
+    params(("id" = String, Path, description = "Scene id")),
+    request_body = ShadowRequest,
+    responses(
+        (status = 200, description = "The visibility image as JSON, or with `Accept: image/png` as a greyscale PNG",
+            content((ShadowResponse = "application/json"), (Binary = "image/png"))),
+        (status = 404, body = Problem, content_type = "application/problem+json"),
+        (status = 422, body = Problem, content_type = "application/problem+json"),
+        (status = 503, body = Problem, content_type = "application/problem+json")),
+    security((), ("api_key" = [])))]
+pub async fn render(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    JsonBody(request): JsonBody<ShadowRequest>,
+) -> Result<Response, ApiError> {
+    let entry = state.registry().get(&id)?;
+    let (camera, light, options) = request.engine();
+    let pixels = camera.width as u64 * camera.height as u64;
+    if pixels > MAX_PIXELS {
+        return Err(ApiError::LimitExceeded(format!(
+            "the image has {pixels} pixels; at most {MAX_PIXELS} are allowed"
+        )));
+    }
+    if options.shadow_map_size > MAX_SHADOW_MAP_SIZE {
+        return Err(ApiError::LimitExceeded(format!(
+            "shadow_map_size {} exceeds {MAX_SHADOW_MAP_SIZE}",
+            options.shadow_map_size
+        )));
+    }
+    camera.check().map_err(ApiError::from_engine)?;
+    light.check().map_err(ApiError::from_engine)?;
+    options.check().map_err(ApiError::from_engine)?;
+    let as_png = headers
+        .get(header::ACCEPT)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|a| a.contains("image/png"));
+    let (revision, image) = state
+        .queries()
+        .run(move || {
+            let live = entry.read();
+            let image = hard_shadows(live.acoustic.bvh(), &camera, &light, &options);
+            (live.acoustic.revision(), image)
+        })
+        .await?;
+    let image = image.map_err(ApiError::from_engine)?;
+    if as_png {
+        let bytes = png(&image).map_err(ApiError::Internal)?;
+        return Ok(([(header::CONTENT_TYPE, "image/png")], bytes).into_response());
+    }
+    Ok(Json(ShadowResponse::new(revision, &image)).into_response())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::routes::test_support::*;
+    use axum::http::StatusCode;
+    use serde_json::json;
+
+    fn body(width: u32) -> serde_json::Value {
+        json!({
+            "camera": {"position": [1, 1, 2.5], "look_at": [6, 4, 0], "width": width, "height": 24},
+            "light": {"position": [5, 3, 2.8]},
+        })
+    }
+
+    #[tokio::test]
+    async fn a_panel_casts_a_shadow_and_selective_equals_full() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let (status, _, selective) = server
+            .send(post_json("/v1/scenes/box/shadows", &body(32).to_string()))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{selective}");
+        let mut full = body(32);
+        full["method"] = json!("full");
+        let (_, _, full) = server
+            .send(post_json("/v1/scenes/box/shadows", &full.to_string()))
+            .await;
+        assert_eq!(selective["visibility"], full["visibility"]);
+        let levels = selective["visibility"].as_array().unwrap();
+        assert_eq!(levels.len(), 32 * 24);
+        assert!(levels.iter().all(|v| v == 0 || v == 255));
+        assert!(selective["stats"]["receivers"].as_u64().unwrap() > 0);
+    }
+
+    #[tokio::test]
+    async fn a_png_holds_the_same_levels() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let (_, _, json) = server
+            .send(post_json("/v1/scenes/box/shadows", &body(32).to_string()))
+            .await;
+        let mut request = post_json("/v1/scenes/box/shadows", &body(32).to_string());
+        request
+            .headers_mut()
+            .insert("accept", "image/png".parse().expect("header"));
+        let (status, content_type, bytes) = server.send_raw(request).await;
+        assert_eq!(status, StatusCode::OK);
+        assert_eq!(content_type, "image/png");
+        let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
+            .read_info()
+            .expect("PNG");
+        let mut pixels = vec![0; reader.output_buffer_size().expect("size")];
+        let info = reader.next_frame(&mut pixels).expect("frame");
+        assert_eq!((info.width, info.height), (32, 24));
+        assert_eq!(info.color_type, png::ColorType::Grayscale);
+        let levels: Vec<u8> = serde_json::from_value(json["visibility"].clone()).unwrap();
+        assert_eq!(&pixels[..info.buffer_size()], &levels[..]);
+        assert!(levels.contains(&0) && levels.contains(&255));
+    }
+
+    #[tokio::test]
+    async fn bad_cameras_lights_and_sizes_are_refused() {
+        let server = TestServer::new();
+        let mut same = body(8);
+        same["camera"]["look_at"] = json!([1, 1, 2.5]);
+        let mut dark = body(8);
+        dark["light"]["position"] = json!([0, 1e39, 0]);
+        let mut huge = body(8);
+        huge["camera"]["width"] = json!(5000);
+        huge["camera"]["height"] = json!(5000);
+        let mut map = body(8);
+        map["shadow_map_size"] = json!(8);
+        let mut unknown = body(8);
+        unknown["lights"] = json!([]);
+        for (doc, status) in [
+            (same, StatusCode::UNPROCESSABLE_ENTITY),
+            (dark, StatusCode::UNPROCESSABLE_ENTITY),
+            (huge, StatusCode::UNPROCESSABLE_ENTITY),
+            (map, StatusCode::UNPROCESSABLE_ENTITY),
+            (unknown, StatusCode::UNPROCESSABLE_ENTITY),
+        ] {
+            let (got, _, problem) = server
+                .send(post_json("/v1/scenes/shoebox/shadows", &doc.to_string()))
+                .await;
+            assert_eq!(got, status, "{doc}");
+            assert!(problem["type"].is_string(), "{doc}");
+        }
+        let (got, _, _) = server
+            .send(post_json("/v1/scenes/none/shadows", &body(8).to_string()))
+            .await;
+        assert_eq!(got, StatusCode::NOT_FOUND);
+    }
+}
