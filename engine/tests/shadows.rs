@@ -316,3 +316,27 @@ fn a_rotated_instance_shadows_as_its_world_mesh_does() {
     let cam = camera(Vec3::new(0.5, -5.0, 3.0), Vec3::ZERO);
     check(&world, &cam, Vec3::new(-0.5, 0.4, 3.2), 256);
 }
+
+#[test]
+fn a_light_a_millimetre_from_a_turned_wall() {
+    // Floor and walls welded into one closed room, turned so no wall is
+    // axis-aligned; the light hangs 1 mm inside a wall, and receivers at
+    // the wall's foot sit beside light-facing triangles that nearly
+    // contain the light.
+    let turn = Quat::from_rotation_z(0.3);
+    let room = common::deformed(&cube(1.0, 4), |p| turn * (Vec3::new(-p.x, p.y, p.z) * 3.0));
+    let world = scene(vec![
+        still("room", room),
+        still(
+            "box",
+            block(Vec3::splat(0.4), turn * Vec3::new(1.0, 0.5, -2.6), 2),
+        ),
+    ]);
+    let cam = camera(
+        turn * Vec3::new(-2.5, -2.0, 1.5),
+        turn * Vec3::new(2.5, 0.5, -2.5),
+    );
+    for (x, z) in [(2.999, 1.0), (2.999, -2.9), (2.99999, 0.0)] {
+        check(&world, &cam, turn * Vec3::new(x, 0.5, z), 128);
+    }
+}

@@ -28,29 +28,36 @@ impl Polygon {
     }
 
     /// The part where `side >= 0` (`side` affine), or `None` when that
-    /// leaves no area.
+    /// leaves no area. A convex polygon gains at most one corner per
+    /// plane; should rounding make it gain more than fit, the polygon is
+    /// returned unclipped, which holds the part (a triangle, clipped
+    /// first by the near plane, keeps at most four corners whatever the
+    /// rounding).
     pub fn clipped(&self, side: impl Fn(DVec3) -> f64) -> Option<Self> {
         let c = self.corners();
         let s: [f64; 8] = std::array::from_fn(|i| if i < c.len() { side(c[i]) } else { 0.0 });
         if s[..c.len()].iter().all(|&v| v >= 0.0) {
             return Some(*self);
         }
-        let mut out = Self {
-            corners: [DVec3::ZERO; 8],
-            count: 0,
-        };
+        let mut out = [DVec3::ZERO; 16];
+        let mut count = 0;
         for i in 0..c.len() {
             let j = (i + 1) % c.len();
             if s[i] >= 0.0 {
-                out.corners[out.count] = c[i];
-                out.count += 1;
+                out[count] = c[i];
+                count += 1;
             }
-            if (s[i] >= 0.0) != (s[j] >= 0.0) && out.count < 8 {
-                out.corners[out.count] = c[i] + (c[j] - c[i]) * (s[i] / (s[i] - s[j]));
-                out.count += 1;
+            if (s[i] >= 0.0) != (s[j] >= 0.0) {
+                out[count] = c[i] + (c[j] - c[i]) * (s[i] / (s[i] - s[j]));
+                count += 1;
             }
         }
-        (out.count >= 3).then_some(out)
+        if count > 8 {
+            return Some(*self);
+        }
+        let mut corners = [DVec3::ZERO; 8];
+        corners[..count].copy_from_slice(&out[..count]);
+        (count >= 3).then_some(Self { corners, count })
     }
 }
 

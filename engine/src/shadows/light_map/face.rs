@@ -71,17 +71,23 @@ impl Projection {
     }
 
     /// Margin in texels for geometry no nearer than depth `z`: the rays'
-    /// rounding `e` moves a point's image by up to `3 e / z` (`u = x / z`
-    /// with `|u| <= 1.1`, both image axes).
+    /// rounding `e` moves a point's image `u = x / z` by up to
+    /// `e (1 + |u|) / z` on each axis, and `|u|` reaches the guard `g`.
     pub fn margin(&self, z: f64) -> f64 {
-        BASE_MARGIN + 3.0 * RAY_ERROR * self.scale / z * self.size as f64 * 0.5
+        let reach = 1.5 * (1.0 + self.guard());
+        BASE_MARGIN + reach * RAY_ERROR * self.scale / z * self.size as f64 * 0.5
+    }
+
+    /// The guarded frustum's half-width in image units.
+    fn guard(&self) -> f64 {
+        1.0 + GUARD_TEXELS * 2.0 / self.size as f64
     }
 
     /// `e` (face coordinates) is in front of the near plane and within the
     /// face's frustum grown by the guard: one side value per plane, all
     /// non-negative inside.
     fn sides(&self, e: DVec3) -> [f64; 5] {
-        let g = 1.0 + GUARD_TEXELS * 2.0 / self.size as f64;
+        let g = self.guard();
         [
             e.z - self.near,
             g * e.z - e.x,
@@ -153,14 +159,17 @@ impl TriangleRaster {
         let normal = (c[1] - c[0]).cross(c[2] - c[0]);
         let k = normal.dot(c[0]);
         let to_unit = 2.0 / p.size as f64;
-        let plane = if k != 0.0 {
-            [
+        // A plane through the light (or a triangle of no area): its
+        // corners alone bound it, the plane bounds nothing.
+        let (plane, spread) = if k != 0.0 {
+            let plane = [
                 (normal.z - normal.x - normal.y) / k,
                 normal.x * to_unit / k,
                 normal.y * to_unit / k,
-            ]
+            ];
+            (plane, (plane[1].abs() + plane[2].abs()) * (0.5 + margin))
         } else {
-            [0.0; 3]
+            ([0.0; 3], f64::INFINITY)
         };
         let area: f64 = (0..count)
             .map(|i| {
@@ -186,7 +195,7 @@ impl TriangleRaster {
             corners,
             count,
             margin,
-            spread: (plane[1].abs() + plane[2].abs()) * (0.5 + margin),
+            spread,
             plane,
             corner_far: 1.0 / z_hi,
             corner_near: 1.0 / z_lo,
@@ -243,4 +252,62 @@ pub(super) fn texel_box(corners: &[[f64; 2]], margin: f64) -> [f64; 4] {
         ];
     }
     [b[0] - margin, b[1] - margin, b[2] + margin, b[3] + margin]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn projection() -> Projection {
+        Projection {
+            light: DVec3::ZERO,
+            face: Face::new(4),
+            size: 64,
+            near: 1e-6,
+            scale: 1.0,
+        }
+    }
+
+    #[test]
+    fn a_plane_through_the_light_is_bounded_by_its_corners() {
+        // The plane y = 0 holds the light: every ray from the light meets
+        // it nowhere or everywhere, so only the corners bound its depth.
+        let c = [
+            DVec3::new(-1.0, 0.0, 1.0),
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(0.0, 0.0, 2.0),
+        ];
+        let r = TriangleRaster::new(&Polygon::triangle(&c), &c, &projection());
+        for (x, y) in [(32.0, 32.0), (10.5, 40.5)] {
+            assert_eq!(r.inverse_depths(x, y), (1.0, 0.5));
+        }
+    }
+
+    #[test]
+    fn depth_bounds_hold_the_plane_over_the_grown_texel() {
+        let c = [
+            DVec3::new(-1.0, -1.0, 1.0),
+            DVec3::new(1.0, -1.0, 2.0),
+            DVec3::new(0.0, 1.0, 1.5),
+        ];
+        let p = projection();
+        let r = TriangleRaster::new(&Polygon::triangle(&c), &c, &p);
+        // The inverse depth where the ray through (x, y) meets the plane.
+        let n = (c[1] - c[0]).cross(c[2] - c[0]);
+        let exact = |x: f64, y: f64| {
+            let d = DVec3::new(2.0 * x / 64.0 - 1.0, 2.0 * y / 64.0 - 1.0, 1.0);
+            n.dot(d) / n.dot(c[0])
+        };
+        let (near, far) = r.inverse_depths(30.5, 33.5);
+        for (dx, dy) in [
+            (-0.5, -0.5),
+            (0.5, 0.5),
+            (-0.5, 0.5),
+            (0.5, -0.5),
+            (0.0, 0.0),
+        ] {
+            let v = exact(30.5 + dx, 33.5 + dy) as f32;
+            assert!(far <= v && v <= near, "{far} <= {v} <= {near}");
+        }
+    }
 }

@@ -24,7 +24,8 @@
 //!   the centre, none near it (one light-facing sheet, crossed once by
 //!   every ray through the texel: at the receiver), its triangles facing
 //!   away (the sheets behind: a solid's far side) and every other part lie
-//!   beyond the receiver.
+//!   beyond the receiver, and no light-facing triangle there has the light
+//!   so near its plane that rounding alone could make a ray cross it.
 //!
 //! Anything else (a contour nearby, two layers, a part partly in front)
 //! is potentially incorrect and traced.
@@ -60,6 +61,8 @@ const TILE: u32 = 32;
 const CONTOUR: u8 = 1;
 /// A triangle's edge passes within the margin of the texel's centre.
 const AMBIGUOUS: u8 = 2;
+/// A light-facing triangle nearly contains the light (see `tiles`).
+const GRAZING: u8 = 4;
 
 /// How a triangle faces the light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -179,8 +182,7 @@ impl LightMap {
                     let hi = t[0].max(t[1]).max(t[2]);
                     (lo - light).max_element() <= reach
                         && (light - hi).max_element() <= reach
-                        && has_area(t)
-                        && closest_on_triangle(light, *t).distance(light) <= reach
+                        && (!has_area(t) || closest_on_triangle(light, *t).distance(light) <= reach)
                 })
             });
         let facings: Vec<Vec<Facing>> = occluders

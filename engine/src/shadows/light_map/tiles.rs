@@ -6,15 +6,33 @@
 use rayon::prelude::*;
 
 use super::face::{texel_box, Projection, TriangleRaster};
-use super::{Facing, Texel, AMBIGUOUS, CONTOUR, TILE};
+use glam::DVec3;
+
+use super::{Facing, Texel, AMBIGUOUS, CONTOUR, GRAZING, RAY_ERROR, TILE};
 use crate::shadows::occluders::{ObjectOccluders, ObjectTopology, Part, NONE};
 use crate::shadows::raster::conservative;
+use crate::shadows::SHADOW_T_MIN;
 
 /// A triangle of a part's layer 0 (facing the light) or 1, set up.
 struct Triangle {
     part: u32,
     layer: usize,
+    /// Facing the light, but with the light so near its plane that a
+    /// traced ray from a receiver beside it may cross the plane after
+    /// `SHADOW_T_MIN` by rounding alone.
+    grazing: bool,
     raster: TriangleRaster,
+}
+
+/// Whether a ray from within the rounding of `tri`'s plane to the light
+/// can cross that plane past `SHADOW_T_MIN`: the crossing falls at about
+/// the rounding over the light's distance from the plane.
+fn grazing(tri: &[DVec3; 3], p: &Projection) -> bool {
+    let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+    let to_light = n.dot(p.light - tri[0]).abs() / n.length();
+    (to_light * SHADOW_T_MIN as f64)
+        .partial_cmp(&(2.0 * RAY_ERROR * p.scale))
+        .is_none_or(|o| o.is_le())
 }
 
 /// A contour edge's visible segment, in texels, and its margin.
@@ -89,21 +107,21 @@ impl Binned {
         p: &Projection,
     ) {
         for t in tris {
+            // Triangles of no area too: the ray test may still see area in
+            // its own rounding; they bound depths and settle nothing.
             let tri = &obj.tris[t as usize];
-            if !super::has_area(tri) {
-                continue;
-            }
             let c = tri.map(|v| p.face.frame(v - p.light));
             let Some(poly) = p.clip(&c) else {
                 continue;
             };
             let raster = TriangleRaster::new(&poly, &c, p);
-            let layer = (facing[t as usize] != Facing::Front) as usize;
+            let front = facing[t as usize] == Facing::Front;
             let entry = self.triangles.len() as u32;
             if self.bin(entry, raster.texel_box(), p.size) {
                 self.triangles.push(Triangle {
                     part,
-                    layer,
+                    layer: (!front) as usize,
+                    grazing: front && grazing(tri, p),
                     raster,
                 });
             }
@@ -234,6 +252,9 @@ impl Tile {
                 }
                 let (near, far) = r.inverse_depths(cx, cy);
                 let cell = &mut self.cells[i];
+                if t.grazing {
+                    cell.flags |= GRAZING;
+                }
                 let l = &mut cell.layers[t.layer];
                 l.near = l.near.max(near);
                 l.far = l.far.min(far);
