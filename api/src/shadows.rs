@@ -1,7 +1,11 @@
 //! `POST /v1/scenes/{id}/shadows`: which pixels of a camera's view a point
-//! light reaches (hard shadows), as a grey PNG or as JSON.
+//! light reaches (hard shadows), as a grey PNG or as JSON; and
+//! `POST /v1/scenes/{id}/visibility`: which of a list of points (seats,
+//! listeners) see a point light.
 
-use frusta_engine::shadows::{Camera, Method, PointLight, ShadowImage, ShadowOptions};
+use frusta_engine::shadows::{
+    Camera, Method, PointLight, PointVisibility, ShadowImage, ShadowOptions, ShadowStats,
+};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
@@ -85,16 +89,79 @@ impl ShadowRequest {
         let light = PointLight {
             position: Vec3::from_array(self.light.position),
         };
-        let defaults = ShadowOptions::default();
-        let options = ShadowOptions {
-            method: match self.method {
-                ShadowMethod::Selective => Method::Selective,
-                ShadowMethod::Full => Method::Full,
-                ShadowMethod::ShadowMap => Method::ShadowMap,
-            },
-            shadow_map_size: self.shadow_map_size.unwrap_or(defaults.shadow_map_size),
-        };
+        let options = options(self.method, self.shadow_map_size);
         (camera, light, options)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct VisibilityRequest {
+    pub light: LightSpec,
+    #[schema(value_type = Vec<Vector3>, max_items = 100000)]
+    pub points: Vec<[f32; 3]>,
+    /// As for shadow images; `selective` traces only the points the light
+    /// map cannot prove.
+    #[serde(default)]
+    pub method: ShadowMethod,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 16, maximum = 1024)]
+    pub shadow_map_size: Option<u32>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct VisibilityResponse {
+    pub revision: u64,
+    /// Per point: whether nothing lies between it and the light.
+    pub visible: Vec<bool>,
+    /// `receivers` counts the points, `pip_pixels` those traced.
+    pub stats: ShadowStatsOut,
+}
+
+impl VisibilityRequest {
+    /// The engine's light, points and options.
+    pub fn engine(&self) -> (PointLight, Vec<Vec3>, ShadowOptions) {
+        let light = PointLight {
+            position: Vec3::from_array(self.light.position),
+        };
+        let points = self.points.iter().map(|p| Vec3::from_array(*p)).collect();
+        (light, points, options(self.method, self.shadow_map_size))
+    }
+}
+
+fn options(method: ShadowMethod, shadow_map_size: Option<u32>) -> ShadowOptions {
+    ShadowOptions {
+        method: match method {
+            ShadowMethod::Selective => Method::Selective,
+            ShadowMethod::Full => Method::Full,
+            ShadowMethod::ShadowMap => Method::ShadowMap,
+        },
+        shadow_map_size: shadow_map_size.unwrap_or(ShadowOptions::default().shadow_map_size),
+    }
+}
+
+impl From<&ShadowStats> for ShadowStatsOut {
+    fn from(s: &ShadowStats) -> Self {
+        Self {
+            receivers: s.receivers,
+            pip_pixels: s.pip_pixels,
+            rays: s.rays,
+            gbuffer_ms: s.gbuffer_ms,
+            light_map_ms: s.light_map_ms,
+            classify_ms: s.classify_ms,
+            trace_ms: s.trace_ms,
+            total_ms: s.total_ms,
+        }
+    }
+}
+
+impl VisibilityResponse {
+    pub fn new(revision: u64, answer: &PointVisibility) -> Self {
+        Self {
+            revision,
+            visible: answer.visible.clone(),
+            stats: (&answer.stats).into(),
+        }
     }
 }
 
@@ -135,22 +202,12 @@ pub fn grey_levels(image: &ShadowImage) -> Vec<u8> {
 
 impl ShadowResponse {
     pub fn new(revision: u64, image: &ShadowImage) -> Self {
-        let s = &image.stats;
         Self {
             revision,
             width: image.width,
             height: image.height,
             visibility: grey_levels(image),
-            stats: ShadowStatsOut {
-                receivers: s.receivers,
-                pip_pixels: s.pip_pixels,
-                rays: s.rays,
-                gbuffer_ms: s.gbuffer_ms,
-                light_map_ms: s.light_map_ms,
-                classify_ms: s.classify_ms,
-                trace_ms: s.trace_ms,
-                total_ms: s.total_ms,
-            },
+            stats: (&image.stats).into(),
         }
     }
 }

@@ -340,3 +340,76 @@ fn a_light_a_millimetre_from_a_turned_wall() {
         check(&world, &cam, turn * Vec3::new(x, 0.5, z), 128);
     }
 }
+
+/// Points on a grid through a box (seats, listeners), points on the
+/// floor and on the slats, and the light itself.
+fn points_in(lo: Vec3, hi: Vec3, n: usize) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                let f = |a: usize| (a as f32 + 0.5) / n as f32;
+                out.push(lo + (hi - lo) * Vec3::new(f(i), f(j), f(k)));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn points_in_the_air_and_on_surfaces_see_the_light_as_rays_say() {
+    let mut objects = vec![
+        still("floor", floor(4.0, 0.0, 4)),
+        still(
+            "box",
+            block(Vec3::new(0.5, 0.4, 0.3), Vec3::new(0.2, -0.1, 1.2), 2),
+        ),
+    ];
+    for k in 0..6 {
+        let x = -1.5 + 0.5 * k as f32;
+        objects.push(still(
+            &format!("slat{k}"),
+            block(Vec3::new(0.005, 1.0, 0.02), Vec3::new(x, 1.5, 1.5), 1),
+        ));
+    }
+    let world = scene(objects);
+    let shadows = ShadowScene::new(&world);
+    let light = PointLight {
+        position: Vec3::new(0.3, 0.2, 3.5),
+    };
+    let mut points = points_in(Vec3::new(-3.9, -3.9, 0.0), Vec3::new(3.9, 3.9, 2.0), 22);
+    points.extend((0..200).map(|i| Vec3::new(-3.0 + 0.03 * i as f32, 0.1, 0.0)));
+    points.extend((0..6).map(|k| Vec3::new(-1.5 + 0.5 * k as f32, 1.5, 1.52)));
+    points.push(light.position);
+    let answer = |method| {
+        let options = ShadowOptions {
+            method,
+            shadow_map_size: 128,
+        };
+        shadows
+            .point_visibility(&world, &light, &points, &options)
+            .unwrap()
+    };
+    let (full, selective) = (answer(Method::Full), answer(Method::Selective));
+    assert_eq!(selective.visible, full.visible);
+    let hidden = full.visible.iter().filter(|v| !**v).count();
+    assert!(
+        hidden > 300 && hidden < points.len() - 3000,
+        "{hidden} of {}",
+        points.len()
+    );
+    let traced = selective.stats.pip_fraction();
+    assert!(traced < 0.25, "traced {traced}");
+    eprintln!(
+        "{} points, {hidden} hidden, {:.1}% traced",
+        points.len(),
+        100.0 * traced
+    );
+    let bad = shadows.point_visibility(
+        &world,
+        &light,
+        &[Vec3::new(f32::NAN, 0.0, 0.0)],
+        &ShadowOptions::default(),
+    );
+    assert!(bad.is_err());
+}

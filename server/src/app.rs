@@ -25,7 +25,7 @@ use crate::metrics::{self, Metrics};
 use crate::registry::Registry;
 use crate::routes::{
     collisions, health, impulse_responses, materials, objects, occlusion, rays, scenes, shadows,
-    stream,
+    stream, visibility,
 };
 
 #[derive(Clone)]
@@ -230,6 +230,10 @@ pub fn router(state: AppState) -> Router {
             routes!(occlusion::check).layer(axum::extract::DefaultBodyLimit::max(rays::BODY_LIMIT)),
         )
         .routes(routes!(shadows::render))
+        .routes(
+            routes!(visibility::check)
+                .layer(axum::extract::DefaultBodyLimit::max(rays::BODY_LIMIT)),
+        )
         .layer(from_fn_with_state(state.clone(), auth::authenticate))
         .split_for_parts();
     utoipa::Modify::modify(&ProblemResponses, &mut api);

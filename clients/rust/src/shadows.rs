@@ -1,7 +1,7 @@
-//! `POST /v1/scenes/{id}/shadows`: hard shadows of a point light seen
-//! through a camera.
+//! `POST /v1/scenes/{id}/shadows` and `.../visibility`: hard shadows of a
+//! point light seen through a camera, and which points see it.
 
-use frusta_api::shadows::{ShadowRequest, ShadowResponse};
+use frusta_api::shadows::{ShadowRequest, ShadowResponse, VisibilityRequest, VisibilityResponse};
 
 use crate::http::encode;
 use crate::{Client, Error};
@@ -10,6 +10,16 @@ impl Client {
     /// The visibility image as JSON (grey levels and stats).
     pub fn shadows(&self, id: &str, request: &ShadowRequest) -> Result<ShadowResponse, Error> {
         let path = format!("/v1/scenes/{}/shadows", encode(id));
+        self.post_json(&path, request)?.json()
+    }
+
+    /// Which of the request's points see its light.
+    pub fn visibility(
+        &self,
+        id: &str,
+        request: &VisibilityRequest,
+    ) -> Result<VisibilityResponse, Error> {
+        let path = format!("/v1/scenes/{}/visibility", encode(id));
         self.post_json(&path, request)?.json()
     }
 }

@@ -38,9 +38,11 @@ mod hard;
 pub mod light_map;
 mod occluders;
 mod raster;
+mod selective;
 
 pub use camera::{Camera, GBuffer, Receiver, MAX_IMAGE_PIXELS};
-pub use hard::{hard_shadows, shadow_ray, ShadowImage, ShadowScene, ShadowStats, SHADOW_T_MIN};
+pub use hard::{hard_shadows, PointVisibility, ShadowImage, ShadowScene, MAX_POINTS};
+pub use selective::{shadow_ray, ShadowStats, SHADOW_T_MIN};
 
 use glam::Vec3;
 

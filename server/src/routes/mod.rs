@@ -11,6 +11,7 @@ pub mod rays;
 pub mod scenes;
 pub mod shadows;
 pub mod stream;
+pub mod visibility;
 
 #[cfg(test)]
 pub(crate) mod test_support;

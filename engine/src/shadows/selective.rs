@@ -1,0 +1,262 @@
+//! What every method shares: the shadow ray, where a point falls on the
+//! light map, the proofs, and resolving a set of points by a method.
+
+use std::time::Instant;
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use super::light_map::{locate, LightMap, Texel, RAY_ERROR};
+use super::occluders::{Occluders, Topology};
+use super::{Method, ShadowOptions};
+use crate::bvh::SceneBvh;
+use crate::geometry::Ray;
+
+/// The ends of a shadow ray left out, as a fraction of its length: the
+/// receiver's own surface at one end, the light's fixture at the other.
+pub const SHADOW_T_MIN: f32 = 1e-4;
+
+/// The shadow ray from `point` to `light`: the segment between them without
+/// its ends' [`SHADOW_T_MIN`]. The light is visible from `point` when it
+/// hits nothing.
+pub fn shadow_ray(point: Vec3, light: Vec3) -> Ray {
+    Ray::segment(point, light).with_range(SHADOW_T_MIN, 1.0 - SHADOW_T_MIN)
+}
+
+/// What a shadow query did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShadowStats {
+    /// Pixels that see a surface.
+    pub receivers: u64,
+    /// Pixels the light map could not prove, and shadow rays traced.
+    pub pip_pixels: u64,
+    pub rays: u64,
+    pub gbuffer_ms: f64,
+    pub light_map_ms: f64,
+    pub classify_ms: f64,
+    pub trace_ms: f64,
+    pub total_ms: f64,
+}
+
+impl ShadowStats {
+    /// Share of the receivers that were traced.
+    pub fn pip_fraction(&self) -> f64 {
+        if self.receivers == 0 {
+            0.0
+        } else {
+            self.pip_pixels as f64 / self.receivers as f64
+        }
+    }
+}
+
+/// What the light map proves about one point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Proof {
+    Lit,
+    Shadowed,
+    /// Potentially incorrect: trace it.
+    Unknown,
+}
+
+/// A point whose view of the light is asked: on a surface (its unit
+/// normal and part), or anywhere (a listener, a seat).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Target {
+    pub point: Vec3,
+    pub surface: Option<(Vec3, u32)>,
+}
+
+pub(super) fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+/// The visibility (1 or 0; 1 where there is no target) of the light from
+/// targets `0..n` by `options.method`; the light map and its proofs need
+/// `topology`, the plain shadow map does not.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn resolve(
+    occluders: &Occluders,
+    topology: &Topology,
+    world: &SceneBvh,
+    light: Vec3,
+    n: usize,
+    target: impl Fn(usize) -> Option<Target> + Sync,
+    options: &ShadowOptions,
+    stats: &mut ShadowStats,
+) -> Vec<f32> {
+    let traced = |t: &Target| {
+        if world.any_hit(&shadow_ray(t.point, light)) {
+            0.0
+        } else {
+            1.0
+        }
+    };
+    stats.receivers = (0..n)
+        .into_par_iter()
+        .filter(|&i| target(i).is_some())
+        .count() as u64;
+    if options.method == Method::Full {
+        let t = Instant::now();
+        let v = (0..n)
+            .into_par_iter()
+            .map(|i| target(i).as_ref().map_or(1.0, traced))
+            .collect();
+        stats.rays = stats.receivers;
+        stats.pip_pixels = stats.receivers;
+        stats.trace_ms = ms(t);
+        return v;
+    }
+    let t = Instant::now();
+    let plain = options.method == Method::ShadowMap;
+    let size = options.shadow_map_size;
+    let needed = (0..n)
+        .into_par_iter()
+        .filter_map(&target)
+        .fold(
+            || [false; 6],
+            |mut acc, t| {
+                acc[Spot::of(t.point, light, size).face] = true;
+                acc
+            },
+        )
+        .reduce(|| [false; 6], |a, b| std::array::from_fn(|i| a[i] | b[i]));
+    let topology = (!plain).then_some(topology);
+    let map = LightMap::build(occluders, topology, light.as_dvec3(), size, needed);
+    stats.light_map_ms = ms(t);
+    let t = Instant::now();
+    let proofs: Vec<Option<Proof>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let target = target(i)?;
+            let spot = Spot::of(target.point, light, size);
+            Some(if plain {
+                plain_test(&map, &spot)
+            } else {
+                prove(&map, &spot, &target)
+            })
+        })
+        .collect();
+    stats.classify_ms = ms(t);
+    let t = Instant::now();
+    let v = proofs
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| match p {
+            Some(Proof::Lit) | None => 1.0,
+            Some(Proof::Shadowed) => 0.0,
+            Some(Proof::Unknown) => target(i).as_ref().map_or(1.0, traced),
+        })
+        .collect();
+    stats.pip_pixels = proofs
+        .iter()
+        .filter(|p| **p == Some(Proof::Unknown))
+        .count() as u64;
+    stats.rays = stats.pip_pixels;
+    stats.trace_ms = ms(t);
+    v
+}
+
+/// Where a point falls on the light map: face, texel and depth.
+struct Spot {
+    face: usize,
+    x: u32,
+    y: u32,
+    z: f64,
+}
+
+impl Spot {
+    fn of(point: Vec3, light: Vec3, size: u32) -> Self {
+        let (face, x, y, z) = locate(point.as_dvec3() - light.as_dvec3(), size);
+        let last = size - 1;
+        Self {
+            face,
+            x: (x.floor().max(0.0) as u32).min(last),
+            y: (y.floor().max(0.0) as u32).min(last),
+            z,
+        }
+    }
+
+    fn texel<'a>(&self, map: &'a LightMap) -> Option<&'a Texel> {
+        Some(map.faces[self.face].as_ref()?.at(self.x, self.y))
+    }
+}
+
+/// What the light map proves about `target` at `spot` (see
+/// [`super::light_map`]). The map holds inverse depths: `f * d > 1` says
+/// the point of `f` is nearer than depth `d`.
+fn prove(map: &LightMap, spot: &Spot, target: &Target) -> Proof {
+    if map.unknown {
+        return Proof::Unknown;
+    }
+    let Some(f) = spot.texel(map) else {
+        return Proof::Unknown;
+    };
+    let z = spot.z;
+    let x = target.point.as_dvec3();
+    let scale = map.scale.max(x.abs().max_element());
+    let slack = 1e-5 * z + RAY_ERROR * scale;
+    let t_min = SHADOW_T_MIN as f64;
+    // Depth falls linearly from z at the receiver to 0 at the light: the
+    // traced range [t_min, 1 - t_min] spans depths z t_min .. z (1 - t_min).
+    if f.cover_far as f64 * (z * (1.0 - t_min) - slack) > 1.0
+        && (f.cover_near as f64) * (z * t_min + slack) < 1.0
+    {
+        return Proof::Shadowed;
+    }
+    let beyond = |near: f32| (near as f64) * (z + slack) < 1.0;
+    let lit = match target.surface {
+        // Nothing at all in front of a point in the air.
+        None => beyond(f.first),
+        Some((normal, part)) => lit_on_surface(map, f, x, normal.as_dvec3(), part, beyond, scale),
+    };
+    if lit {
+        Proof::Lit
+    } else {
+        Proof::Unknown
+    }
+}
+
+/// The sheet proof for a receiver on a surface: its part alone in front,
+/// as one light-facing sheet. The receiver's own sheet, met by the traced
+/// ray within its rounding of the receiver, must fall before t_min: with
+/// cos the angle between the normal and the light,
+/// RAY_ERROR scale / (distance cos) < t_min / 2, and cos > 1e-3.
+fn lit_on_surface(
+    map: &LightMap,
+    f: &Texel,
+    x: DVec3,
+    normal: DVec3,
+    part: u32,
+    beyond: impl Fn(f32) -> bool,
+    scale: f64,
+) -> bool {
+    let to_light = map.light - x;
+    let towards = normal.dot(to_light);
+    f.first_part == part
+        && f.first_sheet
+        && beyond(f.first_back)
+        && beyond(f.second)
+        && towards > 0.0
+        && towards * towards > 1e-6 * to_light.length_squared()
+        && RAY_ERROR * scale < 0.5 * SHADOW_T_MIN as f64 * towards
+}
+
+/// The plain shadow map's answer, with a relative depth bias.
+fn plain_test(map: &LightMap, spot: &Spot) -> Proof {
+    match spot.texel(map) {
+        Some(f) if spot.z * f.centre as f64 > 1.002 => Proof::Shadowed,
+        _ => Proof::Lit,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shadow_ray_spans_the_segment_without_its_ends() {
+        let r = shadow_ray(Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0));
+        assert_eq!(r.dir, glam::Vec3A::new(0.0, 0.0, 2.0));
+        assert_eq!((r.t_min, r.t_max), (SHADOW_T_MIN, 1.0 - SHADOW_T_MIN));
+    }
+}

@@ -1,0 +1,101 @@
+//! `POST /v1/scenes/{id}/visibility`: which of a list of points (seats,
+//! listeners, sensors) see a point light, by selective ray tracing: the
+//! direct-sound coverage of a source.
+
+use axum::extract::{Path, State};
+use axum::Json;
+use frusta_api::shadows::{VisibilityRequest, VisibilityResponse};
+use frusta_engine::shadows::ShadowScene;
+
+use crate::app::AppState;
+use crate::error::{ApiError, JsonBody, Problem};
+use crate::routes::rays::MAX_RAYS;
+use crate::routes::shadows::MAX_SHADOW_MAP_SIZE;
+
+/// Body: `{"light": {"position": [x, y, z]}, "points": [[x, y, z], ...]}`
+/// (at most 100,000 points), optionally `method` and `shadow_map_size`.
+#[utoipa::path(post, path = "/v1/scenes/{id}/visibility", tag = "queries",
+    params(("id" = String, Path, description = "Scene id")),
+    request_body = VisibilityRequest,
+    responses(
+        (status = 200, body = VisibilityResponse),
+        (status = 404, body = Problem, content_type = "application/problem+json"),
+        (status = 413, body = Problem, content_type = "application/problem+json"),
+        (status = 422, body = Problem, content_type = "application/problem+json"),
+        (status = 503, body = Problem, content_type = "application/problem+json")),
+    security((), ("api_key" = [])))]
+pub async fn check(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    JsonBody(request): JsonBody<VisibilityRequest>,
+) -> Result<Json<VisibilityResponse>, ApiError> {
+    let entry = state.registry().get(&id)?;
+    if request.points.len() > MAX_RAYS {
+        return Err(ApiError::TooManyRays {
+            count: request.points.len(),
+            max: MAX_RAYS,
+        });
+    }
+    let (light, points, options) = request.engine();
+    if options.shadow_map_size > MAX_SHADOW_MAP_SIZE {
+        return Err(ApiError::LimitExceeded(format!(
+            "shadow_map_size {} exceeds {MAX_SHADOW_MAP_SIZE}",
+            options.shadow_map_size
+        )));
+    }
+    let (revision, answer) = state
+        .queries()
+        .run(move || {
+            let live = entry.read();
+            let world = live.acoustic.bvh();
+            let answer = ShadowScene::new(world).point_visibility(world, &light, &points, &options);
+            (live.acoustic.revision(), answer)
+        })
+        .await?;
+    let answer = answer.map_err(ApiError::from_engine)?;
+    Ok(Json(VisibilityResponse::new(revision, &answer)))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::routes::test_support::*;
+    use axum::http::StatusCode;
+    use serde_json::json;
+
+    #[tokio::test]
+    async fn the_panel_hides_the_points_behind_it() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        // The panel stands in x = 4, y 1..2, z 0.5..2; the light at x = 2.
+        let points: Vec<[f32; 3]> = (0..40).map(|i| [6.0, 0.05 + 0.1 * i as f32, 1.2]).collect();
+        let body = |method: &str| {
+            json!({"light": {"position": [2, 1.5, 1.2]}, "points": points, "method": method})
+                .to_string()
+        };
+        let (status, _, selective) = server
+            .send(post_json("/v1/scenes/box/visibility", &body("selective")))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{selective}");
+        let (_, _, full) = server
+            .send(post_json("/v1/scenes/box/visibility", &body("full")))
+            .await;
+        assert_eq!(selective["visible"], full["visible"]);
+        let visible: Vec<bool> = serde_json::from_value(full["visible"].clone()).unwrap();
+        // Seen from the light, the panel hides y 0.5 to 2.5 at x = 6.
+        assert!(
+            visible.iter().any(|v| !v) && visible[0] && visible[39],
+            "{visible:?}"
+        );
+        assert_eq!(selective["stats"]["receivers"], 40);
+        let bad =
+            json!({"light": {"position": [2, 1.5, 1.2]}, "points": [[0, 0, 1e39]]}).to_string();
+        let (status, _, _) = server
+            .send(post_json("/v1/scenes/box/visibility", &bad))
+            .await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+        let (status, _, _) = server
+            .send(post_json("/v1/scenes/nothing/visibility", &body("full")))
+            .await;
+        assert_eq!(status, StatusCode::NOT_FOUND);
+    }
+}
