@@ -87,21 +87,33 @@ impl Projection {
     /// face's frustum grown by the guard: one side value per plane, all
     /// non-negative inside.
     fn sides(&self, e: DVec3) -> [f64; 5] {
+        std::array::from_fn(|k| self.side(e, k))
+    }
+
+    /// Plane `k` of [`Self::sides`].
+    fn side(&self, e: DVec3, k: usize) -> f64 {
         let g = self.guard();
-        [
-            e.z - self.near,
-            g * e.z - e.x,
-            g * e.z + e.x,
-            g * e.z - e.y,
-            g * e.z + e.y,
-        ]
+        match k {
+            0 => e.z - self.near,
+            1 => g * e.z - e.x,
+            2 => g * e.z + e.x,
+            3 => g * e.z - e.y,
+            _ => g * e.z + e.y,
+        }
     }
 
     /// The part of a triangle (face coordinates) the face can see.
     pub fn clip(&self, c: &[DVec3; 3]) -> Option<Polygon> {
+        // Most triangles lie wholly outside a plane or inside all five.
+        let sides = c.map(|v| self.sides(v));
+        if (0..5).any(|k| sides.iter().all(|s| s[k] < 0.0)) {
+            return None;
+        }
         let mut poly = Polygon::triangle(c);
         for k in 0..5 {
-            poly = poly.clipped(|e| self.sides(e)[k])?;
+            if sides.iter().any(|s| s[k] < 0.0) {
+                poly = poly.clipped(|e| self.side(e, k))?;
+            }
         }
         Some(poly)
     }
