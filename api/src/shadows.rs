@@ -24,7 +24,7 @@ pub struct ShadowRequest {
     pub method: ShadowMethod,
     /// Side of each cube face of the light map, texels (default 256).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 16, maximum = 1024)]
+    #[schema(minimum = 16, maximum = 512)]
     pub shadow_map_size: Option<u32>,
 }
 
@@ -105,7 +105,7 @@ pub struct VisibilityRequest {
     #[serde(default)]
     pub method: ShadowMethod,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 16, maximum = 1024)]
+    #[schema(minimum = 16, maximum = 512)]
     pub shadow_map_size: Option<u32>,
 }
 

@@ -115,52 +115,42 @@ impl ShadowScene {
         light: &PointLight,
         options: &ShadowOptions,
     ) -> Result<ShadowImage> {
-        hard_shadows_of(self, world, camera, light, options)
-    }
-}
-
-fn hard_shadows_of(
-    scene: &ShadowScene,
-    world: &SceneBvh,
-    camera: &Camera,
-    light: &PointLight,
-    options: &ShadowOptions,
-) -> Result<ShadowImage> {
-    camera.check()?;
-    light.check()?;
-    options.check()?;
-    let start = Instant::now();
-    let mut stats = ShadowStats::default();
-    let occluders = &scene.occluders;
-    let gbuffer = GBuffer::render(camera, occluders);
-    stats.gbuffer_ms = ms(start);
-    let topology = &scene.topology;
-    let target = |i: usize| {
-        let r = gbuffer.receivers[i].as_ref()?;
-        let part = topology.objects[r.object as usize].part[r.slot as usize];
-        Some(Target {
-            point: r.point,
-            surface: Some((r.normal, part)),
+        camera.check()?;
+        light.check()?;
+        options.check()?;
+        let start = Instant::now();
+        let mut stats = ShadowStats::default();
+        let occluders = &self.occluders;
+        let gbuffer = GBuffer::render(camera, occluders);
+        stats.gbuffer_ms = ms(start);
+        let topology = &self.topology;
+        let target = |i: usize| {
+            let r = gbuffer.receivers[i].as_ref()?;
+            let part = topology.objects[r.object as usize].part[r.slot as usize];
+            Some(Target {
+                point: r.point,
+                surface: Some((r.normal, part)),
+            })
+        };
+        let n = gbuffer.receivers.len();
+        let visibility = resolve(
+            occluders,
+            topology,
+            world,
+            light.position,
+            n,
+            target,
+            options,
+            &mut stats,
+        );
+        stats.total_ms = ms(start);
+        Ok(ShadowImage {
+            width: camera.width,
+            height: camera.height,
+            visibility,
+            stats,
         })
-    };
-    let n = gbuffer.receivers.len();
-    let visibility = resolve(
-        occluders,
-        topology,
-        world,
-        light.position,
-        n,
-        target,
-        options,
-        &mut stats,
-    );
-    stats.total_ms = ms(start);
-    Ok(ShadowImage {
-        width: camera.width,
-        height: camera.height,
-        visibility,
-        stats,
-    })
+    }
 }
 
 /// Most points one visibility query may ask about.

@@ -207,7 +207,7 @@ fn prove(map: &LightMap, spot: &Spot, target: &Target) -> Proof {
     let lit = match target.surface {
         // Nothing at all in front of a point in the air.
         None => beyond(f.first),
-        Some((normal, part)) => lit_on_surface(map, f, x, normal.as_dvec3(), part, beyond, scale),
+        Some((normal, part)) => lit_on_surface(map, f, x, normal.as_dvec3(), part, beyond),
     };
     if lit {
         Proof::Lit
@@ -217,10 +217,12 @@ fn prove(map: &LightMap, spot: &Spot, target: &Target) -> Proof {
 }
 
 /// The sheet proof for a receiver on a surface: its part alone in front,
-/// as one light-facing sheet. The receiver's own sheet, met by the traced
-/// ray within its rounding of the receiver, must fall before t_min: with
-/// cos the angle between the normal and the light,
-/// RAY_ERROR scale / (distance cos) < t_min / 2, and cos > 1e-3.
+/// as one light-facing sheet, the receiver's triangle facing the light by
+/// more than 1e-3 in cosine. Its own sheet, met by the traced ray within
+/// its rounding of the receiver, falls before `SHADOW_T_MIN`: a
+/// light-facing triangle with the light nearer its plane than that
+/// rounding allows marks its texels grazing (`light_map::tiles`), and a
+/// sheet with such a mark proves nothing.
 fn lit_on_surface(
     map: &LightMap,
     f: &Texel,
@@ -228,7 +230,6 @@ fn lit_on_surface(
     normal: DVec3,
     part: u32,
     beyond: impl Fn(f32) -> bool,
-    scale: f64,
 ) -> bool {
     let to_light = map.light - x;
     let towards = normal.dot(to_light);
@@ -238,7 +239,6 @@ fn lit_on_surface(
         && beyond(f.second)
         && towards > 0.0
         && towards * towards > 1e-6 * to_light.length_squared()
-        && RAY_ERROR * scale < 0.5 * SHADOW_T_MIN as f64 * towards
 }
 
 /// The plain shadow map's answer, with a relative depth bias.

@@ -15,8 +15,9 @@ use crate::error::{ApiError, JsonBody, Problem};
 /// Most pixels one request may ask for (1024 x 1024; a larger view is
 /// asked for in tiles).
 pub const MAX_PIXELS: u64 = 1024 * 1024;
-/// Largest light-map face a request may ask for.
-pub const MAX_SHADOW_MAP_SIZE: u32 = 1024;
+/// Largest light-map face a request may ask for: six faces of 512^2
+/// texels at 32 bytes hold 50 MiB, and two requests run at once.
+pub const MAX_SHADOW_MAP_SIZE: u32 = 512;
 
 /// Body: `{"camera": {"position", "look_at", "width", "height", ...},
 /// "light": {"position"}, "method"}`. Send `Accept: image/png` for a grey

@@ -98,4 +98,23 @@ mod tests {
             .await;
         assert_eq!(status, StatusCode::NOT_FOUND);
     }
+
+    #[tokio::test]
+    async fn too_many_points_are_refused_and_bad_maps_are_422() {
+        let server = TestServer::new();
+        let points = vec![[1.0f32, 1.0, 1.0]; crate::routes::rays::MAX_RAYS + 1];
+        let body = json!({"light": {"position": [2, 1.5, 1.2]}, "points": points}).to_string();
+        let (status, _, problem) = server
+            .send(post_json("/v1/scenes/shoebox/visibility", &body))
+            .await;
+        assert_eq!(status, StatusCode::PAYLOAD_TOO_LARGE, "{problem}");
+        let body = json!({"light": {"position": [2, 1.5, 1.2]}, "points": [[1, 1, 1]], "shadow_map_size": 1024});
+        let (status, _, _) = server
+            .send(post_json(
+                "/v1/scenes/shoebox/visibility",
+                &body.to_string(),
+            ))
+            .await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    }
 }

@@ -315,3 +315,30 @@ impl Tile {
         self.rows = (u32::MAX, 0);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shadows::light_map::face::Face;
+
+    #[test]
+    fn a_triangle_with_the_light_within_rounding_reach_of_its_plane_is_grazing() {
+        // Rounding reach at scale 10: 2 * 4e-6 * 10 / 1e-4 = 0.8 m.
+        let tri = [
+            DVec3::new(-5.0, -5.0, 0.0),
+            DVec3::new(5.0, -5.0, 0.0),
+            DVec3::new(0.0, 5.0, 0.0),
+        ];
+        let at = |height: f64| Projection {
+            light: DVec3::new(1.0, 2.0, height),
+            face: Face::new(5),
+            size: 64,
+            near: 1e-5,
+            scale: 10.0,
+        };
+        assert!(grazing(&tri, &at(0.5)));
+        assert!(grazing(&tri, &at(-0.79)));
+        assert!(!grazing(&tri, &at(0.81)));
+        assert!(!grazing(&tri, &at(3.0)));
+    }
+}
