@@ -6,45 +6,15 @@
 
 mod common;
 
-use common::{grid_triangles, object};
-use frusta_engine::bvh::{BuildOptions, SceneBvh};
+use common::object;
+use common::shadow_scenes::{block, camera, convex_hull, floor, scene, still};
+use frusta_engine::bvh::SceneBvh;
 use frusta_engine::geometry::shapes::cube;
-use frusta_engine::geometry::{RigidTransform, TriangleMesh};
-use frusta_engine::scene::{Material, Scene, SceneObject};
+use frusta_engine::geometry::RigidTransform;
 use frusta_engine::shadows::{
     hard_shadows, Camera, Method, PointLight, ShadowImage, ShadowOptions, ShadowScene,
 };
 use glam::{DVec2, DVec3, Quat, Vec3};
-
-/// A floor `[-h, h]^2` at height `z`, `n x n` quads, facing up.
-fn floor(h: f32, z: f32, n: usize) -> TriangleMesh {
-    let mut positions = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            let at = |k: usize| -h + 2.0 * h * k as f32 / n as f32;
-            positions.push(Vec3::new(at(i), at(j), z));
-        }
-    }
-    TriangleMesh::new(positions, grid_triangles(n, n)).unwrap()
-}
-
-/// A box of half sizes `half` centred at `at`, each face `n x n` quads.
-fn block(half: Vec3, at: Vec3, n: u32) -> TriangleMesh {
-    let c = cube(1.0, n);
-    common::deformed(&c, |p| p * half + at)
-}
-
-fn scene(objects: Vec<SceneObject>) -> SceneBvh {
-    let scene = Scene {
-        materials: vec![Material::uniform("m", 0.1).unwrap()],
-        objects,
-    };
-    SceneBvh::build(&scene, &BuildOptions::default())
-}
-
-fn still(name: &str, mesh: TriangleMesh) -> SceneObject {
-    object(name, mesh, RigidTransform::IDENTITY)
-}
 
 fn render(
     world: &SceneBvh,
@@ -56,6 +26,7 @@ fn render(
     let options = ShadowOptions {
         method,
         shadow_map_size: size,
+        ..ShadowOptions::default()
     };
     hard_shadows(world, camera, &PointLight { position: light }, &options).unwrap()
 }
@@ -98,35 +69,10 @@ fn check(
     (selective, full, plain_wrong)
 }
 
-fn camera(at: Vec3, look: Vec3) -> Camera {
-    Camera::looking_at(at, look, 192, 144)
-}
-
 /// Signed distance of `p` outside the convex hull of `points` (negative
-/// inside), by gift wrapping in `f64`.
+/// inside).
 fn hull_distance(points: &[DVec2], p: DVec2) -> f64 {
-    let start = points.iter().copied().fold(
-        points[0],
-        |a, b| if (b.x, b.y) < (a.x, a.y) { b } else { a },
-    );
-    let mut hull = vec![start];
-    loop {
-        let last = *hull.last().unwrap();
-        let mut next = points[0];
-        for &q in points {
-            let cross = (next - last).perp_dot(q - last);
-            if next == last
-                || cross < 0.0
-                || (cross == 0.0 && last.distance(q) > last.distance(next))
-            {
-                next = q;
-            }
-        }
-        if next == start {
-            break;
-        }
-        hull.push(next);
-    }
+    let hull = convex_hull(points);
     // Counter-clockwise hull: outside is where any edge sees p on its
     // right.
     (0..hull.len())
@@ -385,14 +331,15 @@ fn points_in_the_air_and_on_surfaces_see_the_light_as_rays_say() {
         let options = ShadowOptions {
             method,
             shadow_map_size: 128,
+            ..ShadowOptions::default()
         };
         shadows
             .point_visibility(&world, &light, &points, &options)
             .unwrap()
     };
     let (full, selective) = (answer(Method::Full), answer(Method::Selective));
-    assert_eq!(selective.visible, full.visible);
-    let hidden = full.visible.iter().filter(|v| !**v).count();
+    assert_eq!(selective.fraction, full.fraction);
+    let hidden = full.fraction.iter().filter(|v| **v == 0.0).count();
     assert!(
         hidden > 300 && hidden < points.len() - 3000,
         "{hidden} of {}",

@@ -38,8 +38,8 @@ pub fn hard_shadows(
 /// depends only on the geometry, so one serves every camera and light
 /// until an object moves or deforms.
 pub struct ShadowScene {
-    occluders: Occluders,
-    topology: Topology,
+    pub(super) occluders: Occluders,
+    pub(super) topology: Topology,
     /// Time it took to make, in milliseconds.
     pub build_ms: f64,
 }
@@ -95,10 +95,7 @@ impl ShadowScene {
             &mut stats,
         );
         stats.total_ms = ms(start);
-        Ok(PointVisibility {
-            visible: v.iter().map(|&v| v == 1.0).collect(),
-            stats,
-        })
+        Ok(PointVisibility { fraction: v, stats })
     }
 
     /// Hard shadows of `light` seen through `camera`; `world` must be the
@@ -123,19 +120,11 @@ impl ShadowScene {
         let occluders = &self.occluders;
         let gbuffer = GBuffer::render(camera, occluders);
         stats.gbuffer_ms = ms(start);
-        let topology = &self.topology;
-        let target = |i: usize| {
-            let r = gbuffer.receivers[i].as_ref()?;
-            let part = topology.objects[r.object as usize].part[r.slot as usize];
-            Some(Target {
-                point: r.point,
-                surface: Some((r.normal, part)),
-            })
-        };
+        let target = |i: usize| self.surface_target(&gbuffer, i);
         let n = gbuffer.receivers.len();
         let visibility = resolve(
             occluders,
-            topology,
+            &self.topology,
             world,
             light.position,
             n,
@@ -153,18 +142,32 @@ impl ShadowScene {
     }
 }
 
+impl ShadowScene {
+    /// The surface pixel `i` of `gbuffer` sees, if any, as a target.
+    pub(super) fn surface_target(&self, gbuffer: &GBuffer, i: usize) -> Option<Target> {
+        let r = gbuffer.receivers[i].as_ref()?;
+        let part = self.topology.objects[r.object as usize].part[r.slot as usize];
+        Some(Target {
+            point: r.point,
+            surface: Some((r.normal, part)),
+        })
+    }
+}
+
 /// Most points one visibility query may ask about.
 pub const MAX_POINTS: usize = 1 << 20;
 
-/// Which points see a light.
+/// How much of a light each point sees.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointVisibility {
-    pub visible: Vec<bool>,
+    /// Per point the fraction of the light's samples it sees (a point
+    /// light: 0 or 1).
+    pub fraction: Vec<f32>,
     /// `receivers` counts the points, `pip_pixels` those traced.
     pub stats: ShadowStats,
 }
 
-fn check_points(points: &[Vec3]) -> Result<()> {
+pub(super) fn check_points(points: &[Vec3]) -> Result<()> {
     if points.len() > MAX_POINTS {
         return Err(Error::LimitExceeded(format!(
             "{} points asked about; at most {MAX_POINTS}",

@@ -33,13 +33,17 @@
 //! assert_eq!(selective.visibility, full.visibility);
 //! ```
 
+mod area;
 mod camera;
 mod hard;
 pub mod light_map;
 mod occluders;
+mod penumbra;
 mod raster;
 mod selective;
+mod soft;
 
+pub use area::{AreaLight, AreaShape};
 pub use camera::{Camera, GBuffer, Receiver, MAX_IMAGE_PIXELS};
 pub use hard::{hard_shadows, PointVisibility, ShadowImage, ShadowScene, MAX_POINTS};
 pub use selective::{shadow_ray, ShadowStats, SHADOW_T_MIN};
@@ -82,12 +86,21 @@ pub enum Method {
 /// Largest shadow-map side the engine accepts.
 pub const MAX_SHADOW_MAP_SIZE: u32 = 4096;
 
+/// Most samples per side of an area light.
+pub const MAX_LIGHT_SAMPLES: u32 = 16;
+
 /// Options of a shadow query.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ShadowOptions {
     pub method: Method,
-    /// Side of each shadow-map face in texels.
+    /// Side of each shadow-map face in texels (point lights; for an area
+    /// light, the plain map of its centre).
     pub shadow_map_size: u32,
+    /// Area lights: each receiver draws `samples x samples` stratified
+    /// samples of the light.
+    pub samples: u32,
+    /// Area lights: the seed of the samples' streams.
+    pub seed: u64,
 }
 
 impl Default for ShadowOptions {
@@ -95,6 +108,8 @@ impl Default for ShadowOptions {
         Self {
             method: Method::Selective,
             shadow_map_size: 256,
+            samples: 4,
+            seed: 0,
         }
     }
 }
@@ -105,6 +120,12 @@ impl ShadowOptions {
             return Err(Error::InvalidOption {
                 field: "shadow_map_size".into(),
                 reason: format!("must lie in 16..={MAX_SHADOW_MAP_SIZE}"),
+            });
+        }
+        if !(1..=MAX_LIGHT_SAMPLES).contains(&self.samples) {
+            return Err(Error::InvalidOption {
+                field: "samples".into(),
+                reason: format!("must lie in 1..={MAX_LIGHT_SAMPLES}"),
             });
         }
         Ok(())

@@ -64,6 +64,9 @@ pub(super) struct ObjectTopology {
     pub parts: Vec<Part>,
     /// Scene-wide part of each triangle.
     pub part: Vec<u32>,
+    /// The three [`Self::edges`] of each triangle slot ([`NONE`] for a
+    /// zero-area triangle, which has none).
+    pub edges_of: Vec<[u32; 3]>,
 }
 
 /// Every object of a world.
@@ -159,11 +162,20 @@ impl ObjectTopology {
                 edges,
             })
             .collect();
+        let mut edges_of = vec![[NONE; 3]; tris.len()];
+        for (i, e) in edges.iter().enumerate() {
+            for &t in e.tris.iter().filter(|&&t| t != NONE) {
+                if let Some(free) = edges_of[t as usize].iter_mut().find(|e| **e == NONE) {
+                    *free = i as u32;
+                }
+            }
+        }
         Self {
             edges,
             by_part,
             parts,
             part,
+            edges_of,
         }
     }
 }
@@ -303,6 +315,11 @@ mod tests {
         assert_eq!(o.edges.len(), c.triangle_count() * 3 / 2);
         assert!(o.edges.iter().all(|e| e.tris[1] != NONE));
         assert_eq!(o.parts.len(), 1);
+        for (t, edges) in o.edges_of.iter().enumerate() {
+            for &e in edges {
+                assert!(o.edges[e as usize].tris.contains(&(t as u32)));
+            }
+        }
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! Helpers shared by the engine's integration tests.
 #![allow(dead_code)]
 
+pub mod shadow_scenes;
+
 use frusta_engine::bvh::{BuildMethod, BuildOptions};
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::SceneObject;
