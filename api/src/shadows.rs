@@ -1,10 +1,12 @@
-//! `POST /v1/scenes/{id}/shadows`: which pixels of a camera's view a point
-//! light reaches (hard shadows), as a grey PNG or as JSON; and
-//! `POST /v1/scenes/{id}/visibility`: which of a list of points (seats,
-//! listeners) see a point light.
+//! `POST /v1/scenes/{id}/shadows`: how much of a light each pixel of a
+//! camera's view receives (hard shadows of a point light, soft shadows of
+//! an area light), as a grey PNG or as JSON; and
+//! `POST /v1/scenes/{id}/visibility`: how much of a light each of a list
+//! of points (seats, listeners) sees.
 
 use frusta_engine::shadows::{
-    Camera, Method, PointLight, PointVisibility, ShadowImage, ShadowOptions, ShadowStats,
+    AreaLight, AreaShape, Camera, Light, Method, PointLight, PointVisibility, ShadowImage,
+    ShadowOptions, ShadowStats,
 };
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -26,6 +28,15 @@ pub struct ShadowRequest {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(minimum = 16, maximum = 512)]
     pub shadow_map_size: Option<u32>,
+    /// Area lights: each receiver draws `samples x samples` stratified
+    /// samples of the light (default 4: 16 samples).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 1, maximum = 16)]
+    pub samples: Option<u32>,
+    /// Area lights: the samples' seed (default 0); the same seed gives the
+    /// same image.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
@@ -57,12 +68,98 @@ fn fov() -> f32 {
     60.0
 }
 
-/// A point light.
+/// A light at `position`: a point (the default, hard shadows), or with a
+/// `shape` an area light centred there (soft shadows).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LightSpec {
     #[schema(value_type = Vector3)]
     pub position: [f32; 3],
+    #[serde(default)]
+    pub shape: LightShape,
+    /// Rectangle: the half edges, `position + a u + b v` for `a, b` in
+    /// `[-1, 1]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Vector3>)]
+    pub u: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Vector3>)]
+    pub v: Option<[f32; 3]>,
+    /// Disk: the side it faces.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Vector3>)]
+    pub normal: Option<[f32; 3]>,
+    /// Disk and sphere, metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f32>,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum LightShape {
+    #[default]
+    Point,
+    Rectangle,
+    Disk,
+    Sphere,
+}
+
+impl LightSpec {
+    /// A point light.
+    pub fn point(position: [f32; 3]) -> Self {
+        Self {
+            position,
+            shape: LightShape::Point,
+            u: None,
+            v: None,
+            normal: None,
+            radius: None,
+        }
+    }
+
+    /// The engine's light, or what is missing or out of place.
+    pub fn engine(&self) -> Result<Light, String> {
+        let centre = Vec3::from_array(self.position);
+        let need = |v: Option<[f32; 3]>, what: &str| {
+            v.map(Vec3::from_array)
+                .ok_or(format!("a {:?} light needs `{what}`", self.shape))
+        };
+        let radius = || {
+            self.radius
+                .ok_or(format!("a {:?} light needs `radius`", self.shape))
+        };
+        let used: &[(&str, bool)] = &[
+            ("u", self.u.is_some()),
+            ("v", self.v.is_some()),
+            ("normal", self.normal.is_some()),
+            ("radius", self.radius.is_some()),
+        ];
+        let allowed: &[&str] = match self.shape {
+            LightShape::Point => &[],
+            LightShape::Rectangle => &["u", "v"],
+            LightShape::Disk => &["normal", "radius"],
+            LightShape::Sphere => &["radius"],
+        };
+        if let Some((field, _)) = used.iter().find(|(f, set)| *set && !allowed.contains(f)) {
+            return Err(format!(
+                "`{field}` does not apply to a {:?} light",
+                self.shape
+            ));
+        }
+        let area = |shape| Light::Area(AreaLight { centre, shape });
+        Ok(match self.shape {
+            LightShape::Point => Light::Point(PointLight { position: centre }),
+            LightShape::Rectangle => area(AreaShape::Rectangle {
+                u: need(self.u, "u")?,
+                v: need(self.v, "v")?,
+            }),
+            LightShape::Disk => area(AreaShape::Disk {
+                normal: need(self.normal, "normal")?,
+                radius: radius()?,
+            }),
+            LightShape::Sphere => area(AreaShape::Sphere { radius: radius()? }),
+        })
+    }
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -75,8 +172,9 @@ pub enum ShadowMethod {
 }
 
 impl ShadowRequest {
-    /// The engine's camera, light and options.
-    pub fn engine(&self) -> (Camera, PointLight, ShadowOptions) {
+    /// The engine's camera, light and options, or what is wrong with the
+    /// light.
+    pub fn engine(&self) -> Result<(Camera, Light, ShadowOptions), String> {
         let c = &self.camera;
         let camera = Camera {
             position: Vec3::from_array(c.position),
@@ -86,11 +184,9 @@ impl ShadowRequest {
             width: c.width,
             height: c.height,
         };
-        let light = PointLight {
-            position: Vec3::from_array(self.light.position),
-        };
-        let options = options(self.method, self.shadow_map_size);
-        (camera, light, options)
+        let light = self.light.engine()?;
+        let options = options(self.method, self.shadow_map_size, self.samples, self.seed);
+        Ok((camera, light, options))
     }
 }
 
@@ -107,36 +203,54 @@ pub struct VisibilityRequest {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(minimum = 16, maximum = 512)]
     pub shadow_map_size: Option<u32>,
+    /// As for shadow images.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 1, maximum = 16)]
+    pub samples: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct VisibilityResponse {
     pub revision: u64,
-    /// Per point: whether nothing lies between it and the light.
+    /// Per point: whether it sees all of the light (a point light: whether
+    /// nothing lies between them).
     pub visible: Vec<bool>,
+    /// Per point: the fraction of the light's samples it sees (0 or 1 for
+    /// a point light).
+    pub fraction: Vec<f32>,
     /// `receivers` counts the points, `pip_pixels` those traced.
     pub stats: ShadowStatsOut,
 }
 
 impl VisibilityRequest {
-    /// The engine's light, points and options.
-    pub fn engine(&self) -> (PointLight, Vec<Vec3>, ShadowOptions) {
-        let light = PointLight {
-            position: Vec3::from_array(self.light.position),
-        };
+    /// The engine's light, points and options, or what is wrong with the
+    /// light.
+    pub fn engine(&self) -> Result<(Light, Vec<Vec3>, ShadowOptions), String> {
+        let light = self.light.engine()?;
         let points = self.points.iter().map(|p| Vec3::from_array(*p)).collect();
-        (light, points, options(self.method, self.shadow_map_size))
+        let options = options(self.method, self.shadow_map_size, self.samples, self.seed);
+        Ok((light, points, options))
     }
 }
 
-fn options(method: ShadowMethod, shadow_map_size: Option<u32>) -> ShadowOptions {
+fn options(
+    method: ShadowMethod,
+    shadow_map_size: Option<u32>,
+    samples: Option<u32>,
+    seed: Option<u64>,
+) -> ShadowOptions {
+    let default = ShadowOptions::default();
     ShadowOptions {
         method: match method {
             ShadowMethod::Selective => Method::Selective,
             ShadowMethod::Full => Method::Full,
             ShadowMethod::ShadowMap => Method::ShadowMap,
         },
-        shadow_map_size: shadow_map_size.unwrap_or(ShadowOptions::default().shadow_map_size),
+        shadow_map_size: shadow_map_size.unwrap_or(default.shadow_map_size),
+        samples: samples.unwrap_or(default.samples),
+        seed: seed.unwrap_or(default.seed),
     }
 }
 
@@ -159,7 +273,8 @@ impl VisibilityResponse {
     pub fn new(revision: u64, answer: &PointVisibility) -> Self {
         Self {
             revision,
-            visible: answer.visible.clone(),
+            visible: answer.fraction.iter().map(|&f| f == 1.0).collect(),
+            fraction: answer.fraction.clone(),
             stats: (&answer.stats).into(),
         }
     }

@@ -1,6 +1,9 @@
-//! `frusta-bench shadows`: hard shadows of a moving point light per frame,
-//! the plain shadow map, selective ray tracing and full ray tracing side by
-//! side, interleaved frame by frame; the light map is rebuilt every frame.
+//! `frusta-bench shadows`: hard shadows of a moving point light and soft
+//! shadows of a moving area light per frame, the plain shadow map,
+//! selective ray tracing and full ray tracing side by side, interleaved
+//! frame by frame; the light map is rebuilt every frame. Then the receiver
+//! form: which of 10,000 seats see a source on the stage, selective
+//! against one ray (or one set of samples) per seat.
 //! Every method shares the frame's G-buffer (rasterised, timed apart), so
 //! each method's time is its shadow work alone, and selective must match
 //! full on every pixel. The scene's shadow data (world-space triangles,
@@ -13,7 +16,10 @@ use frusta_engine::bvh::{BuildOptions, SceneBvh};
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::generate::BoxRoom;
 use frusta_engine::scene::{Material, Scene, SceneObject};
-use frusta_engine::shadows::{Camera, Method, PointLight, ShadowImage, ShadowOptions, ShadowScene};
+use frusta_engine::shadows::{
+    AreaLight, AreaShape, Camera, Method, PointLight, PointVisibility, ShadowImage, ShadowOptions,
+    ShadowScene,
+};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -36,12 +42,25 @@ pub struct Args {
     /// Frames, the light moving along a circle.
     #[arg(long, default_value_t = 8)]
     frames: usize,
+    /// Soft shadows: samples per side of the area light (16 samples at 4).
+    #[arg(long, default_value_t = 4)]
+    samples: u32,
+    /// Which shadows to run.
+    #[arg(long, value_enum, default_value_t = Kinds::Both)]
+    shadows: Kinds,
     /// Print the runs as JSON instead of a table.
     #[arg(long)]
     json: bool,
     /// Also write `shadows.txt` and `shadows.json` (with provenance) here.
     #[arg(long)]
     save: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Kinds {
+    Hard,
+    Soft,
+    Both,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -52,6 +71,8 @@ struct Run {
     width: u32,
     height: u32,
     shadow_map_size: u32,
+    /// Light samples per receiver (1 for hard shadows).
+    samples: u32,
     frames: usize,
     /// Medians per frame of each method's shadow work (the G-buffer apart).
     full_ms: f64,
@@ -73,9 +94,28 @@ struct Run {
     receivers_per_frame: f64,
 }
 
+/// Which seats see a source: one query, medians over the rounds.
+#[derive(Clone, Debug, Serialize)]
+struct Seats {
+    scene: String,
+    shadows: &'static str,
+    points: usize,
+    samples: u32,
+    rounds: usize,
+    full_ms: f64,
+    selective_ms: f64,
+    /// Share of the points selective traced.
+    pip_fraction: f64,
+    /// Points where selective differs from full, over all rounds.
+    wrong_points: u64,
+    /// Share of the points that see all of the source.
+    visible_fraction: f64,
+}
+
 #[derive(Serialize)]
 struct Runs {
     runs: Vec<Run>,
+    seats: Vec<Seats>,
 }
 
 #[derive(Serialize)]
@@ -95,6 +135,10 @@ struct Setup {
     target: Vec3,
     light_centre: Vec3,
     light_radius: f32,
+    /// Half side of the square area light.
+    light_half: f32,
+    /// A source on the stage and the seats' box (halls only).
+    stage: Option<(Vec3, Vec3, Vec3)>,
 }
 
 fn setup(name: &str) -> Result<Setup, String> {
@@ -106,7 +150,7 @@ fn setup(name: &str) -> Result<Setup, String> {
         }
     };
     let world = SceneBvh::build(&scene, &BuildOptions::default());
-    let (eye, target, light_centre, light_radius) = match name {
+    let (eye, target, light_centre, light_radius, light_half) = match name {
         // The 40 x 24 x 16 m hall from above the back seats towards the
         // stage; the light circles 2 m under the ceiling.
         "hall-10k" | "hall-200k" => (
@@ -114,14 +158,25 @@ fn setup(name: &str) -> Result<Setup, String> {
             Vec3::new(8.0, 12.0, 1.0),
             Vec3::new(22.0, 12.0, 14.0),
             6.0,
+            0.5,
         ),
         _ => (
             Vec3::new(5.0, 1.2, 2.2),
             Vec3::new(3.0, 3.0, 0.4),
             Vec3::new(3.0, 3.0, 2.6),
             1.2,
+            0.2,
         ),
     };
+    let stage = name.starts_with("hall").then(|| {
+        (
+            // 1.5 m above the stage (x < 6 m), and ears 0.7 m above the
+            // seat blocks (x from 10 m).
+            Vec3::new(3.0, 12.0, 2.5),
+            Vec3::new(10.5, 1.5, 1.2),
+            Vec3::new(38.0, 22.5, 1.2),
+        )
+    });
     Ok(Setup {
         triangles: scene.triangle_count(),
         world,
@@ -129,6 +184,8 @@ fn setup(name: &str) -> Result<Setup, String> {
         target,
         light_centre,
         light_radius,
+        light_half,
+        stage,
     })
 }
 
@@ -188,21 +245,41 @@ fn differing(a: &ShadowImage, b: &ShadowImage) -> u64 {
         .count() as u64
 }
 
-fn run_scene(name: &str, args: &Args) -> Result<Run, String> {
-    let s = setup(name)?;
+fn options(method: Method, args: &Args) -> ShadowOptions {
+    ShadowOptions {
+        method,
+        shadow_map_size: args.map,
+        samples: args.samples,
+        ..ShadowOptions::default()
+    }
+}
+
+fn run_scene(
+    s: &Setup,
+    scene: &ShadowScene,
+    name: &str,
+    soft: bool,
+    args: &Args,
+) -> Result<Run, String> {
     let camera = Camera {
         fov_y_deg: 70.0,
         ..Camera::looking_at(s.eye, s.target, args.size, args.size)
     };
-    let scene = ShadowScene::new(&s.world);
-    let shadow = |method, light| {
-        let options = ShadowOptions {
-            method,
-            shadow_map_size: args.map,
-        };
-        scene
-            .hard_shadows(&s.world, &camera, &PointLight { position: light }, &options)
-            .map_err(|e| e.to_string())
+    // Soft: a square panel facing down.
+    let shadow = |method, centre: Vec3| {
+        let options = options(method, args);
+        if soft {
+            let shape = AreaShape::Rectangle {
+                u: Vec3::X * s.light_half,
+                v: Vec3::Y * s.light_half,
+            };
+            let light = AreaLight { centre, shape };
+            scene.soft_shadows(&s.world, &camera, &light, &options)
+        } else {
+            let light = PointLight { position: centre };
+            scene.hard_shadows(&s.world, &camera, &light, &options)
+        }
+        .map_err(|e| e.to_string())
     };
     let mut times: [Vec<f64>; 4] = Default::default();
     let mut phases: [Vec<f64>; 3] = Default::default();
@@ -240,10 +317,11 @@ fn run_scene(name: &str, args: &Args) -> Result<Run, String> {
     Ok(Run {
         scene: name.into(),
         triangles: s.triangles,
-        shadows: "hard",
+        shadows: if soft { "soft" } else { "hard" },
         width: args.size,
         height: args.size,
         shadow_map_size: args.map,
+        samples: if soft { args.samples * args.samples } else { 1 },
         frames: args.frames.max(1),
         full_ms,
         selective_ms,
@@ -267,15 +345,27 @@ pub fn run(args: Args) -> Result<(), String> {
     } else {
         args.scenes.clone()
     };
-    let mut runs = Vec::new();
+    let (mut runs, mut seats) = (Vec::new(), Vec::new());
+    let kinds: &[bool] = match args.shadows {
+        Kinds::Hard => &[false],
+        Kinds::Soft => &[true],
+        Kinds::Both => &[false, true],
+    };
     for name in &names {
         if !SCENES.contains(&name.as_str()) {
             return Err(format!("unknown scene {name}; one of {SCENES:?}"));
         }
-        runs.push(run_scene(name, &args)?);
+        let s = setup(name)?;
+        let scene = ShadowScene::new(&s.world);
+        for &soft in kinds {
+            runs.push(run_scene(&s, &scene, name, soft, &args)?);
+            if let Some(stage) = s.stage {
+                seats.push(run_seats(&s, &scene, name, stage, soft, &args)?);
+            }
+        }
     }
     provenance.finish();
-    let runs = Runs { runs };
+    let runs = Runs { runs, seats };
     let text = table(&runs, &provenance);
     let saved = Saved {
         provenance,
@@ -291,19 +381,93 @@ pub fn run(args: Args) -> Result<(), String> {
     )
 }
 
+/// Which of 100 x 100 seats see a source on the stage: a point, or (soft)
+/// a sphere of 0.3 m radius, a talker or a loudspeaker; the methods
+/// alternate first round by round.
+fn run_seats(
+    s: &Setup,
+    scene: &ShadowScene,
+    name: &str,
+    (source, lo, hi): (Vec3, Vec3, Vec3),
+    soft: bool,
+    args: &Args,
+) -> Result<Seats, String> {
+    let n = 100;
+    let points: Vec<Vec3> = (0..n * n)
+        .map(|k| {
+            let (i, j) = (
+                (k % n) as f32 / (n - 1) as f32,
+                (k / n) as f32 / (n - 1) as f32,
+            );
+            Vec3::new(lo.x + (hi.x - lo.x) * i, lo.y + (hi.y - lo.y) * j, lo.z)
+        })
+        .collect();
+    let ask = |method| -> Result<PointVisibility, String> {
+        let options = options(method, args);
+        if soft {
+            let light = AreaLight {
+                centre: source,
+                shape: AreaShape::Sphere { radius: 0.3 },
+            };
+            scene.area_visibility(&s.world, &light, &points, &options)
+        } else {
+            let light = PointLight { position: source };
+            scene.point_visibility(&s.world, &light, &points, &options)
+        }
+        .map_err(|e| e.to_string())
+    };
+    let rounds = args.frames.max(1);
+    let (mut full_ms, mut selective_ms) = (Vec::new(), Vec::new());
+    let (mut wrong, mut pip, mut visible) = (0, 0, 0.0);
+    for round in 0..rounds {
+        let (full, selective) = if round % 2 == 0 {
+            let f = ask(Method::Full)?;
+            (f, ask(Method::Selective)?)
+        } else {
+            let sel = ask(Method::Selective)?;
+            (ask(Method::Full)?, sel)
+        };
+        full_ms.push(full.stats.total_ms);
+        selective_ms.push(selective.stats.total_ms);
+        wrong += full
+            .fraction
+            .iter()
+            .zip(&selective.fraction)
+            .filter(|(a, b)| a != b)
+            .count() as u64;
+        pip += selective.stats.pip_pixels;
+        visible = full.fraction.iter().filter(|f| **f == 1.0).count() as f64 / points.len() as f64;
+    }
+    Ok(Seats {
+        scene: name.into(),
+        shadows: if soft { "soft" } else { "hard" },
+        points: points.len(),
+        samples: if soft { args.samples * args.samples } else { 1 },
+        rounds,
+        full_ms: median(full_ms),
+        selective_ms: median(selective_ms),
+        pip_fraction: pip as f64 / (rounds * points.len()) as f64,
+        wrong_points: wrong,
+        visible_fraction: visible,
+    })
+}
+
 fn table(runs: &Runs, provenance: &Provenance) -> String {
     let mut out = provenance.header();
     out +=
-        "\nhard shadows of a point light circling the scene; per frame, medians; each method's\n";
+        "\nhard shadows of a point light, soft shadows of a square panel facing down (samples per\n";
+    out += "pixel in the table), circling the scene; per frame, medians; each method's\n";
     out +=
         "time excludes the G-buffer every method shares and the scene's shadow data, made once\n";
     out += "(their own columns)\n\n";
-    out += "scene        triangles    image  map   full ms  selective ms  (map+classify+trace)     shadow map ms  gbuffer ms  scene ms  full/sel   PIP  wrong  map wrong\n";
+    out += "scene        triangles shadows samples   image  map   full ms  selective ms  (map+classify+trace)     shadow map ms  gbuffer ms  scene ms  full/sel   PIP  wrong  map wrong\n";
     for r in &runs.runs {
         out += &format!(
-            "{:<12} {:>9} {:>5}^2 {:>4} {:>9.1} {:>13.1}  ({:>5.1}+{:>4.1}+{:>5.1}) {:>16.1} {:>11.1} {:>9.1} {:>9.2} {:>5.3} {:>6} {:>10}\n",
+            "{:<12} {:>9} {:>7} {:>7} {:>5}^2 {:>4} {:>9.1} {:>13.1}  ({:>5.1}+{:>4.1}+{:>5.1}) {:>16.1} {:>11.1} {:>9.1} {:>9.2} {:>5.3} {:>6} {:>10}\n",
             r.scene,
             r.triangles,
+            r.shadows,
+            r.samples,
             r.width,
             r.shadow_map_size,
             r.full_ms,
@@ -318,6 +482,24 @@ fn table(runs: &Runs, provenance: &Provenance) -> String {
             r.pip_fraction,
             r.wrong_pixels,
             r.shadow_map_wrong_pixels
+        );
+    }
+    out += "\nwhich of 100 x 100 seats (ears 0.7 m above the seat blocks) see a source 1.5 m above the\n";
+    out += "stage: a point (hard) or a sphere of radius 0.3 m (soft); one query each, medians\n\n";
+    out += "scene        shadows samples  points   full ms  selective ms  full/sel   traced  wrong  see all\n";
+    for r in &runs.seats {
+        out += &format!(
+            "{:<12} {:>7} {:>7} {:>7} {:>9.1} {:>13.1} {:>9.2} {:>8.3} {:>6} {:>8.3}\n",
+            r.scene,
+            r.shadows,
+            r.samples,
+            r.points,
+            r.full_ms,
+            r.selective_ms,
+            r.full_ms / r.selective_ms,
+            r.pip_fraction,
+            r.wrong_points,
+            r.visible_fraction
         );
     }
     out

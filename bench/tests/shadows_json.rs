@@ -28,18 +28,22 @@ fn shadows_json_has_the_documented_fields() {
     assert_eq!(doc["runs"], saved["runs"]);
     assert_eq!(saved["commit"].as_str().unwrap().len(), 40);
     let runs = doc["runs"].as_array().unwrap();
-    assert_eq!(runs.len(), 1);
-    let r = &runs[0];
-    assert_eq!(r["scene"], "bunny-room");
-    assert_eq!(r["shadows"], "hard");
-    assert_eq!(
-        (r["width"].as_u64(), r["height"].as_u64()),
-        (Some(96), Some(96))
-    );
-    for field in ["full_ms", "selective_ms", "shadow_map_ms"] {
-        assert!(r[field].as_f64().unwrap() > 0.0, "{field}: {r}");
+    assert_eq!(runs.len(), 2);
+    for (r, shadows) in runs.iter().zip(["hard", "soft"]) {
+        assert_eq!(r["scene"], "bunny-room");
+        assert_eq!(r["shadows"], shadows);
+        assert_eq!(
+            (r["width"].as_u64(), r["height"].as_u64()),
+            (Some(96), Some(96))
+        );
+        for field in ["full_ms", "selective_ms", "shadow_map_ms"] {
+            assert!(r[field].as_f64().unwrap() > 0.0, "{field}: {r}");
+        }
+        let pip = r["pip_fraction"].as_f64().unwrap();
+        assert!(pip > 0.0 && pip < 1.0, "{r}");
+        assert_eq!(r["wrong_pixels"], 0, "{r}");
     }
-    let pip = r["pip_fraction"].as_f64().unwrap();
-    assert!(pip > 0.0 && pip < 1.0, "{r}");
-    assert_eq!(r["wrong_pixels"], 0, "{r}");
+    assert_eq!(runs[1]["samples"], 16);
+    // The bunny's room has no stage: no seats.
+    assert_eq!(doc["seats"].as_array().unwrap().len(), 0);
 }

@@ -360,3 +360,26 @@ fn points_in_the_air_and_on_surfaces_see_the_light_as_rays_say() {
     );
     assert!(bad.is_err());
 }
+
+#[test]
+fn a_surface_receives_light_only_on_the_side_it_is_seen_from() {
+    // A floor seen from below, the light above: its seen side faces away.
+    let world = scene(vec![still("floor", floor(4.0, 0.0, 2))]);
+    let light = Vec3::new(0.0, 0.0, 3.0);
+    for (eye, lit) in [
+        (Vec3::new(0.5, -1.0, -3.0), 0.0),
+        (Vec3::new(0.5, -1.0, 3.0), 1.0),
+    ] {
+        let cam = camera(eye, Vec3::ZERO);
+        let (_, full, _) = check(&world, &cam, light, 64);
+        let g = ShadowScene::new(&world).gbuffer(&cam).unwrap();
+        let seen: Vec<f32> = g
+            .receivers
+            .iter()
+            .zip(&full.visibility)
+            .filter_map(|(r, v)| r.map(|_| *v))
+            .collect();
+        assert!(seen.len() > 10_000);
+        assert!(seen.iter().all(|v| *v == lit), "seen from {eye}");
+    }
+}

@@ -351,3 +351,34 @@ fn points_see_an_area_light_as_their_rays_say() {
         selective.stats
     );
 }
+
+#[test]
+fn a_light_through_the_floor_lights_it_by_half() {
+    // A vertical panel half above, half below a bare floor: stratified
+    // rows split at the floor, so every floor pixel sees exactly half of
+    // the samples, the upper half from above and the lower from below
+    // (not all of them: a surface takes light only on its seen side).
+    let world = scene(vec![still("floor", floor(4.0, 0.0, 2))]);
+    let light = rectangle(Vec3::new(0.0, 0.0, 0.0), Vec3::X * 0.5, Vec3::Z * 0.5);
+    for (eye, seen_fraction) in [
+        (Vec3::new(0.5, -3.0, 3.0), 0.5),
+        (Vec3::new(0.5, -3.0, -3.0), 0.5),
+    ] {
+        let cam = camera(eye, Vec3::ZERO);
+        let (_, full) = check(&world, &cam, &light, 4);
+        let g = ShadowScene::new(&world).gbuffer(&cam).unwrap();
+        let seen: Vec<f32> = g
+            .receivers
+            .iter()
+            .zip(&full.visibility)
+            .filter_map(|(r, v)| r.map(|_| *v))
+            .collect();
+        assert!(seen.len() > 10_000);
+        let odd: Vec<&f32> = seen
+            .iter()
+            .filter(|v| **v != seen_fraction)
+            .take(5)
+            .collect();
+        assert!(odd.is_empty(), "seen from {eye}: {odd:?}");
+    }
+}

@@ -1,18 +1,19 @@
-//! `frusta shadows`: where a point light reaches in a camera's view, as a
-//! greyscale PNG (255 lit, 0 shadowed), computed here or (with
-//! `--scene-id`) on the server, with the same image either way.
+//! `frusta shadows`: how much of a light reaches each pixel of a camera's
+//! view, as a greyscale PNG (255 lit, 0 shadowed; between, the fraction of
+//! an area light seen), computed here or (with `--scene-id`) on the
+//! server, with the same image either way.
 
 use std::error::Error;
 use std::path::PathBuf;
 
 use clap::ValueEnum;
 use frusta_client::api::shadows::{
-    png, png_of_levels, CameraSpec, LightSpec, ShadowMethod, ShadowRequest,
+    png, png_of_levels, CameraSpec, LightShape, LightSpec, ShadowMethod, ShadowRequest,
 };
 use frusta_client::Client;
 use frusta_engine::bvh::{BuildOptions, SceneBvh};
 use frusta_engine::scene::Scene;
-use frusta_engine::shadows::hard_shadows;
+use frusta_engine::shadows::ShadowScene;
 use glam::Vec3;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -23,6 +24,14 @@ pub enum Method {
     Full,
     /// The plain shadow map: fast, wrong near edges.
     ShadowMap,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Shape {
+    Point,
+    Rectangle,
+    Disk,
+    Sphere,
 }
 
 #[derive(clap::Args)]
@@ -53,9 +62,32 @@ pub struct ShadowArgs {
     width: u32,
     #[arg(long, default_value_t = 480)]
     height: u32,
-    /// Point light position `X,Y,Z`.
+    /// Light position `X,Y,Z` (an area light's centre).
     #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
     light: Vec3,
+    /// `point` (hard shadows), or an area light: `rectangle` (needs
+    /// `--light-u`, `--light-v`), `disk` (`--light-normal`,
+    /// `--light-radius`), `sphere` (`--light-radius`).
+    #[arg(long, value_enum, default_value = "point")]
+    light_shape: Shape,
+    /// Rectangle: half edge `X,Y,Z`.
+    #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
+    light_u: Option<Vec3>,
+    /// Rectangle: the other half edge `X,Y,Z`.
+    #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
+    light_v: Option<Vec3>,
+    /// Disk: the side it faces, `X,Y,Z`.
+    #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
+    light_normal: Option<Vec3>,
+    /// Disk or sphere radius, metres.
+    #[arg(long)]
+    light_radius: Option<f32>,
+    /// Area lights: `N` gives `N x N` samples per pixel.
+    #[arg(long)]
+    samples: Option<u32>,
+    /// Area lights: the samples' seed.
+    #[arg(long)]
+    seed: Option<u64>,
     #[arg(long, value_enum, default_value = "selective")]
     method: Method,
     /// Side of each light-map face, texels.
@@ -78,7 +110,17 @@ impl ShadowArgs {
                 height: self.height,
             },
             light: LightSpec {
-                position: self.light.to_array(),
+                shape: match self.light_shape {
+                    Shape::Point => LightShape::Point,
+                    Shape::Rectangle => LightShape::Rectangle,
+                    Shape::Disk => LightShape::Disk,
+                    Shape::Sphere => LightShape::Sphere,
+                },
+                u: self.light_u.map(|v| v.to_array()),
+                v: self.light_v.map(|v| v.to_array()),
+                normal: self.light_normal.map(|v| v.to_array()),
+                radius: self.light_radius,
+                ..LightSpec::point(self.light.to_array())
             },
             method: match self.method {
                 Method::Selective => ShadowMethod::Selective,
@@ -86,6 +128,8 @@ impl ShadowArgs {
                 Method::ShadowMap => ShadowMethod::ShadowMap,
             },
             shadow_map_size: self.shadow_map_size,
+            samples: self.samples,
+            seed: self.seed,
         }
     }
 }
@@ -97,8 +141,8 @@ pub fn run(args: &ShadowArgs) -> Result<(), Box<dyn Error>> {
         .ok_or("give --scene FILE or --scene-id ID")?;
     let scene = Scene::load(path)?;
     let world = SceneBvh::build(&scene, &BuildOptions::default());
-    let (camera, light, options) = args.request().engine();
-    let image = hard_shadows(&world, &camera, &light, &options)?;
+    let (camera, light, options) = args.request().engine()?;
+    let image = ShadowScene::new(&world).shadows(&world, &camera, &light, &options)?;
     std::fs::write(&args.out, png(&image)?)?;
     report(
         &args.out,

@@ -447,3 +447,64 @@ fn shadows_draw_the_same_png_here_and_on_the_server() {
         "{bad:?}"
     );
 }
+
+#[test]
+fn soft_shadows_draw_the_same_png_here_and_on_the_server() {
+    let server = Server::start();
+    let doc = server.file("panel-room.json", PANEL_ROOM);
+    let id = stdout(&server.frusta(&["scenes", "upload", path_str(&doc)]));
+    let view = [
+        "shadows",
+        "--camera",
+        "1,1,2.5",
+        "--look-at",
+        "6,4,0",
+        "--light",
+        "5,3,2.8",
+        "--light-shape",
+        "disk",
+        "--light-normal",
+        "0,0,-1",
+        "--light-radius",
+        "0.4",
+        "--samples",
+        "3",
+        "--width",
+        "48",
+        "--height",
+        "32",
+        "--out",
+    ];
+    let (here, there) = (
+        server.dir.0.join("soft-here.png"),
+        server.dir.0.join("soft-there.png"),
+    );
+    stdout(&server.frusta(&[&view[..], &[path_str(&here), "--scene", path_str(&doc)]].concat()));
+    stdout(&server.frusta(&[&view[..], &[path_str(&there), "--scene-id", id.trim()]].concat()));
+    let bytes = std::fs::read(&here).expect("PNG here");
+    assert_eq!(bytes, std::fs::read(&there).expect("PNG there"));
+    let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
+        .read_info()
+        .expect("a PNG");
+    let mut pixels = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut pixels).expect("a frame");
+    let pixels = &pixels[..info.buffer_size()];
+    assert!(
+        pixels.iter().any(|p| *p > 0 && *p < 255),
+        "the disk casts a penumbra"
+    );
+    // A disk without its radius.
+    let bad = server.frusta(
+        &[
+            &view[..11],
+            &view[13..],
+            &[path_str(&here), "--scene-id", id.trim()],
+        ]
+        .concat(),
+    );
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("radius"),
+        "{bad:?}"
+    );
+}

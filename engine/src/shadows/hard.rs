@@ -78,12 +78,7 @@ impl ShadowScene {
         check_points(points)?;
         let start = Instant::now();
         let mut stats = ShadowStats::default();
-        let target = |i: usize| {
-            Some(Target {
-                point: points[i],
-                surface: None,
-            })
-        };
+        let target = |i: usize| Some(Target::air(points[i]));
         let v = resolve(
             &self.occluders,
             &self.topology,
@@ -120,7 +115,7 @@ impl ShadowScene {
         let occluders = &self.occluders;
         let gbuffer = GBuffer::render(camera, occluders);
         stats.gbuffer_ms = ms(start);
-        let target = |i: usize| self.surface_target(&gbuffer, i);
+        let target = |i: usize| self.surface_target(&gbuffer, camera, i);
         let n = gbuffer.receivers.len();
         let visibility = resolve(
             occluders,
@@ -143,13 +138,21 @@ impl ShadowScene {
 }
 
 impl ShadowScene {
-    /// The surface pixel `i` of `gbuffer` sees, if any, as a target.
-    pub(super) fn surface_target(&self, gbuffer: &GBuffer, i: usize) -> Option<Target> {
+    /// The surface pixel `i` of `gbuffer` (seen through `camera`) sees,
+    /// if any, as a target.
+    pub(super) fn surface_target(
+        &self,
+        gbuffer: &GBuffer,
+        camera: &Camera,
+        i: usize,
+    ) -> Option<Target> {
         let r = gbuffer.receivers[i].as_ref()?;
         let part = self.topology.objects[r.object as usize].part[r.slot as usize];
+        let seen = r.normal.dot(camera.position - r.point) >= 0.0;
         Some(Target {
             point: r.point,
             surface: Some((r.normal, part)),
+            front: if seen { r.normal } else { -r.normal },
         })
     }
 }

@@ -15,6 +15,15 @@
 //!   ray the reference could trace would say otherwise, so selective and
 //!   full agree on every pixel.
 //!
+//! An [`AreaLight`] (rectangle, disk, sphere) casts soft shadows: each
+//! receiver sees the fraction of `S x S` stratified samples of the light
+//! it has a clear segment to, drawn from a stream named by the receiver
+//! and the seed, so every method draws the same samples. Selective proves
+//! receivers lit or in the umbra from the triangles that may meet the hull
+//! between the receiver and the light ([`ShadowScene::soft_shadows`]) and
+//! traces the samples of the rest. A surface receives light only on the
+//! side it is seen from.
+//!
 //! ```
 //! use frusta_engine::bvh::{BuildOptions, SceneBvh};
 //! use frusta_engine::geometry::shapes::cube;
@@ -67,6 +76,22 @@ impl PointLight {
             });
         }
         Ok(())
+    }
+}
+
+/// Any light: a point casts hard shadows, an area light soft ones.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    Point(PointLight),
+    Area(AreaLight),
+}
+
+impl Light {
+    pub fn check(&self) -> Result<()> {
+        match self {
+            Light::Point(l) => l.check(),
+            Light::Area(l) => l.check(),
+        }
     }
 }
 

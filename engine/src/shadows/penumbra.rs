@@ -25,10 +25,11 @@ use glam::{DVec3, Vec3, Vec3A};
 
 use super::light_map::RAY_ERROR;
 use super::occluders::{Occluders, Topology, NONE};
-use super::raster::Polygon;
 use super::selective::SHADOW_T_MIN;
+use crate::bvh::traverse::NodeTest;
 use crate::bvh::traverse::{Flow, FrustumTest};
 use crate::bvh::SceneBvh;
+use crate::geometry::Aabb;
 
 /// What a receiver's hull proves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,6 +66,11 @@ pub(super) struct Hull {
     height: f64,
     /// The corners of the cut pyramid.
     corners: [DVec3; 8],
+    /// The grown hull's planes `n · x + d >= 0` (see [`Self::side`]).
+    planes: [(DVec3, f64); 6],
+    /// How far a traced ray may stray from its exact segment.
+    rounding: f64,
+    /// The planes' margin: the rounding, and that of the ray's range.
     margin: f64,
 }
 
@@ -78,7 +84,8 @@ impl Hull {
         let scale = scale
             .max(apex.abs().max_element())
             .max(c.abs().max_element() + reach);
-        let margin = RAY_ERROR * scale + 1e-5 * reach;
+        let rounding = RAY_ERROR * scale;
+        let margin = rounding + 1e-5 * reach;
         let mut normal = u.cross(v).normalize();
         let mut height = normal.dot(c - apex);
         if height < 0.0 {
@@ -106,31 +113,35 @@ impl Hull {
             let t = if k < 4 { t0 } else { t1 };
             apex + (q[k % 4] - apex) * t
         });
+        let mut planes = [(DVec3::ZERO, 0.0); 6];
+        for (plane, n) in planes.iter_mut().zip(sides) {
+            *plane = (n, margin - n.dot(apex));
+        }
+        planes[4] = (normal, margin - t0 * height - normal.dot(apex));
+        planes[5] = (-normal, margin + t1 * height + normal.dot(apex));
         Some(Self {
             apex,
             sides,
             normal,
             height,
             corners,
+            planes,
+            rounding,
             margin,
         })
     }
 
     /// Plane `k` of the grown hull: the sides `0..4`, the slab's near and
     /// far planes `4` and `5`; positive inside.
+    #[inline]
     fn side(&self, x: DVec3, k: usize) -> f64 {
-        let d = x - self.apex;
-        let (t0, t1) = (SHADOW_T_MIN as f64, 1.0 - SHADOW_T_MIN as f64);
-        match k {
-            0..=3 => self.sides[k].dot(d) + self.margin,
-            4 => self.normal.dot(d) - (t0 * self.height - self.margin),
-            _ => (t1 * self.height + self.margin) - self.normal.dot(d),
-        }
+        let (n, d) = self.planes[k];
+        n.dot(x) + d
     }
 
-    /// The hull's planes for the walk, in `f32` with slack for the
-    /// rounding of the test itself, and the bound on the depth key.
-    fn node_test(&self) -> (FrustumTest, f32) {
+    /// The hull's planes as a box test, in `f32` with slack for the
+    /// rounding of the test itself, and the bound on its depth key.
+    pub fn box_test(&self) -> (FrustumTest, f32) {
         let p = self.apex;
         let mut planes = [(Vec3A::ZERO, 0.0f32); 5];
         for (plane, n) in planes.iter_mut().zip(self.sides) {
@@ -152,32 +163,79 @@ impl Hull {
     }
 
     /// Whether triangle `t` may meet the grown hull (false only when it
-    /// surely does not).
+    /// surely does not): outside one of its planes, or its own plane
+    /// separating the cut pyramid's corners from it by more than a ray's
+    /// rounding (which settles the receiver's own surface and its
+    /// coplanar neighbours), or else clipped away.
     fn meets(&self, t: &[DVec3; 3]) -> bool {
+        let sides: [[f64; 3]; 6] = std::array::from_fn(|k| t.map(|c| self.side(c, k)));
+        if sides.iter().any(|s| s.iter().all(|&v| v < 0.0)) {
+            return false;
+        }
+        if sides.iter().all(|s| s.iter().all(|&v| v >= 0.0)) {
+            return true;
+        }
         let n = (t[1] - t[0]).cross(t[2] - t[0]);
         let len = n.length();
         if len > 0.0 {
-            let reach = 3.0 * self.margin * len;
+            let reach = self.rounding * len;
             let d = self.corners.map(|c| n.dot(c - t[0]));
             if d.iter().all(|&d| d > reach) || d.iter().all(|&d| d < -reach) {
                 return false;
             }
         }
-        self.clip(t, 0..6).is_some()
+        self.depths(t, &sides).is_some()
     }
 
-    /// The part of `t` inside planes `planes` of the grown hull.
-    fn clip(&self, t: &[DVec3; 3], planes: std::ops::Range<usize>) -> Option<Polygon> {
-        let mut poly = Polygon::triangle(t);
-        for k in planes {
-            if t.iter().all(|&c| self.side(c, k) < 0.0) {
+    /// The range of depths along the light's normal of the part of `t`
+    /// inside the grown cone (planes `0..4`, whose values at the corners
+    /// `sides` holds), and inside the slab too when `sides` has six rows;
+    /// `None` when nothing is left.
+    fn depths<const K: usize>(&self, t: &[DVec3; 3], sides: &[[f64; 3]; K]) -> Option<(f64, f64)> {
+        // A triangle clipped by six planes keeps at most nine corners;
+        // rounding may add a few, and past the buffer the piece is taken
+        // whole, which holds the clipped part.
+        const MAX: usize = 16;
+        let mut corners = [DVec3::ZERO; MAX];
+        corners[..3].copy_from_slice(t);
+        let mut count = 3;
+        for (k, s) in sides.iter().enumerate() {
+            if s.iter().all(|&v| v >= 0.0) {
+                continue;
+            }
+            let mut next = [DVec3::ZERO; MAX];
+            let mut n = 0;
+            for i in 0..count {
+                let (a, b) = (corners[i], corners[(i + 1) % count]);
+                let (sa, sb) = (self.side(a, k), self.side(b, k));
+                if sa >= 0.0 && n < MAX {
+                    next[n] = a;
+                    n += 1;
+                }
+                if (sa >= 0.0) != (sb >= 0.0) && n < MAX {
+                    next[n] = a + (b - a) * (sa / (sa - sb));
+                    n += 1;
+                }
+            }
+            if n == 0 {
                 return None;
             }
-            if t.iter().any(|&c| self.side(c, k) < 0.0) {
-                poly = poly.clipped(|x| self.side(x, k))?;
+            if n == MAX {
+                corners[..3].copy_from_slice(t);
+                count = 3;
+                continue;
             }
+            corners = next;
+            count = n;
         }
-        Some(poly)
+        let h = |x: DVec3| self.normal.dot(x - self.apex);
+        Some(
+            corners[..count]
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                    (lo.min(h(x)), hi.max(h(x)))
+                }),
+        )
     }
 
     /// Whether segment `[a, b]` may meet the grown cone (no slab).
@@ -197,66 +255,45 @@ impl Hull {
         s0 <= s1
     }
 
-    /// Whether every point of `poly` lies strictly inside the slab shrunk
+    /// Whether the depths `(lo, hi)` lie strictly inside the slab shrunk
     /// by the margin.
-    fn inside_slab(&self, poly: &Polygon) -> bool {
+    fn inside_slab(&self, (lo, hi): (f64, f64)) -> bool {
         let (t0, t1) = (SHADOW_T_MIN as f64, 1.0 - SHADOW_T_MIN as f64);
-        let (lo, hi) = (
-            t0 * self.height + self.margin,
-            t1 * self.height - self.margin,
-        );
-        poly.corners().iter().all(|&x| {
-            let h = self.normal.dot(x - self.apex);
-            h > lo && h < hi
-        })
+        lo > t0 * self.height + self.margin && hi < t1 * self.height - self.margin
     }
 
-    /// The candidates of `world` (given as `occluders` and `topology`)
-    /// into `out`; false when there are more than [`MAX_CANDIDATES`].
+    /// The candidates among `pool` into `out`; false when there are more
+    /// than [`MAX_CANDIDATES`].
     pub fn candidates(
         &self,
-        world: &SceneBvh,
+        pool: &Pool,
         occluders: &Occluders,
         topology: &Topology,
         out: &mut Vec<Candidate>,
     ) -> bool {
         out.clear();
-        let (test, bound) = self.node_test();
-        let mut full = false;
-        world.walk_objects(&test, bound, |object, inst, bound| {
-            let local = if inst.is_identity() {
-                test
-            } else {
-                test.in_frame(inst.to_object())
-            };
-            let tris = &occluders.objects[object as usize].tris;
-            let part = &topology.objects[object as usize].part;
-            inst.bvh().wide().walk(&local, *bound, |first, count, _| {
-                for slot in first..first + count {
-                    let t = &tris[slot as usize];
-                    if !self.meets(t) {
-                        continue;
-                    }
-                    if out.len() == MAX_CANDIDATES {
-                        full = true;
-                        return Flow::Break(());
-                    }
-                    out.push(Candidate {
-                        part: part[slot as usize],
-                        facing: self.facing(t),
-                        object,
-                        slot,
-                    });
-                }
-                Flow::Continue(())
-            });
-            if full {
-                Flow::Break(())
-            } else {
-                Flow::Continue(())
+        // Most of the pool lies wholly outside one of the hull's planes:
+        // their boxes say so for a few f32 operations.
+        let (test, bound) = self.box_test();
+        for (&(object, slot), b) in pool.triangles.iter().zip(&pool.boxes) {
+            if test.test(b, bound).is_none() {
+                continue;
             }
-        });
-        !full
+            let t = &occluders.objects[object as usize].tris[slot as usize];
+            if !self.meets(t) {
+                continue;
+            }
+            if out.len() == MAX_CANDIDATES {
+                return false;
+            }
+            out.push(Candidate {
+                part: topology.objects[object as usize].part[slot as usize],
+                facing: self.facing(t),
+                object,
+                slot,
+            });
+        }
+        true
     }
 
     fn facing(&self, t: &[DVec3; 3]) -> i8 {
@@ -302,8 +339,10 @@ impl Hull {
         let in_sheet = |slot: u32| sheet.binary_search_by_key(&slot, |c| c.slot).is_ok();
         let mut seen = false;
         for c in sheet {
-            if let Some(piece) = self.clip(&tris[c.slot as usize], 0..4) {
-                if !self.inside_slab(&piece) {
+            let t = &tris[c.slot as usize];
+            let sides: [[f64; 3]; 4] = std::array::from_fn(|k| t.map(|c| self.side(c, k)));
+            if let Some(piece) = self.depths(t, &sides) {
+                if !self.inside_slab(piece) {
                     return false;
                 }
                 seen = true;
@@ -324,6 +363,116 @@ impl Hull {
             }
         }
         seen
+    }
+}
+
+/// Triangles a group of hulls may meet: object and slot, and their boxes
+/// in `f32` (rounded to nearest: the box tests' slack covers that).
+#[derive(Default)]
+pub(super) struct Pool {
+    triangles: Vec<(u32, u32)>,
+    boxes: Vec<Aabb>,
+}
+
+/// Planes bounding a group of hulls (neighbouring pixels): the first
+/// hull's side and near planes moved out to hold every hull's corners, and
+/// a bound on depth along its light normal. One walk with them finds
+/// every triangle any of the hulls may meet.
+pub(super) struct Bounds {
+    normals: [DVec3; 5],
+    /// `normals[k] · x >= lo[k]` holds over the group.
+    lo: [f64; 5],
+    /// `normals[4] · x <= far` too.
+    far: f64,
+    scale: f64,
+}
+
+impl Bounds {
+    pub fn of<'h>(mut hulls: impl Iterator<Item = &'h Hull>) -> Option<Self> {
+        let first = hulls.next()?;
+        let normals = [
+            first.sides[0],
+            first.sides[1],
+            first.sides[2],
+            first.sides[3],
+            first.normal,
+        ];
+        let mut lo = [f64::INFINITY; 5];
+        let mut far = f64::NEG_INFINITY;
+        let mut scale = 0.0f64;
+        for h in std::iter::once(first).chain(hulls) {
+            let grow = 3.0 * h.margin;
+            for c in h.corners.iter().chain([&h.apex]) {
+                for k in 0..5 {
+                    lo[k] = lo[k].min(normals[k].dot(*c) - grow);
+                }
+                far = far.max(normals[4].dot(*c) + grow);
+                scale = scale.max(c.abs().max_element());
+            }
+        }
+        Some(Self {
+            normals,
+            lo,
+            far,
+            scale,
+        })
+    }
+
+    /// Whether triangle `t` lies wholly outside one of the planes.
+    fn excludes(&self, t: &[DVec3; 3]) -> bool {
+        (0..5).any(|k| t.iter().all(|c| self.normals[k].dot(*c) < self.lo[k]))
+            || t.iter().all(|c| self.normals[4].dot(*c) > self.far)
+    }
+
+    /// The triangles of `world` that may lie inside, into `out`; false
+    /// when there are more than `limit`.
+    pub fn triangles(
+        &self,
+        world: &SceneBvh,
+        occluders: &Occluders,
+        out: &mut Pool,
+        limit: usize,
+    ) -> bool {
+        out.triangles.clear();
+        out.boxes.clear();
+        // In f32, with slack for the rounding of the test itself.
+        let slack = (1e-6 * self.scale) as f32;
+        let planes: [(Vec3A, f32); 5] =
+            std::array::from_fn(|k| (self.normals[k].as_vec3a(), self.lo[k] as f32));
+        let depth = (self.normals[4].as_vec3a(), self.lo[4] as f32);
+        let bound = (self.far - self.lo[4] + 1e-6 * self.scale) as f32;
+        let test = FrustumTest::new(&planes, depth, slack);
+        let mut full = false;
+        world.walk_objects(&test, bound, |object, inst, bound| {
+            let local = if inst.is_identity() {
+                test
+            } else {
+                test.in_frame(inst.to_object())
+            };
+            let tris = &occluders.objects[object as usize].tris;
+            inst.bvh().wide().walk(&local, *bound, |first, count, _| {
+                for slot in first..first + count {
+                    let t = &tris[slot as usize];
+                    if self.excludes(t) {
+                        continue;
+                    }
+                    if out.triangles.len() == limit {
+                        full = true;
+                        return Flow::Break(());
+                    }
+                    out.triangles.push((object, slot));
+                    let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+                    out.boxes.push(Aabb::new(lo.as_vec3a(), hi.as_vec3a()));
+                }
+                Flow::Continue(())
+            });
+            if full {
+                Flow::Break(())
+            } else {
+                Flow::Continue(())
+            }
+        });
+        !full
     }
 }
 

@@ -64,6 +64,31 @@ enum Proof {
 pub(super) struct Target {
     pub point: Vec3,
     pub surface: Option<(Vec3, u32)>,
+    /// The normal of the side a surface is seen from, which alone
+    /// receives light (zero in the air, where every side does).
+    pub front: Vec3,
+}
+
+impl Target {
+    /// A point in the air.
+    pub fn air(point: Vec3) -> Self {
+        Self {
+            point,
+            surface: None,
+            front: Vec3::ZERO,
+        }
+    }
+
+    /// Whether light from `x` can reach the target: in the air always, on
+    /// a surface when `x` lies strictly on the side it is seen from.
+    pub fn faces(&self, x: Vec3) -> bool {
+        self.front == Vec3::ZERO
+            || self
+                .front
+                .as_dvec3()
+                .dot(x.as_dvec3() - self.point.as_dvec3())
+                > 0.0
+    }
 }
 
 pub(super) fn ms(since: Instant) -> f64 {
@@ -85,7 +110,7 @@ pub(super) fn resolve(
     stats: &mut ShadowStats,
 ) -> Vec<f32> {
     let traced = |t: &Target| {
-        if world.any_hit(&shadow_ray(t.point, light)) {
+        if !t.faces(light) || world.any_hit(&shadow_ray(t.point, light)) {
             0.0
         } else {
             1.0
@@ -128,6 +153,9 @@ pub(super) fn resolve(
         .into_par_iter()
         .map(|i| {
             let target = target(i)?;
+            if !target.faces(light) {
+                return Some(Proof::Shadowed);
+            }
             let spot = Spot::of(target.point, light, size);
             Some(if plain {
                 plain_test(&map, &spot)

@@ -8,19 +8,50 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::area::AreaLight;
 use super::camera::GBuffer;
 use super::hard::{check_points, ShadowScene};
-use super::penumbra::{Cover, Hull};
+use super::light_map::RAY_ERROR;
+use super::penumbra::{Bounds, Candidate, Cover, Hull, Pool};
 use super::selective::{ms, resolve, shadow_ray, ShadowStats, Target};
-use super::{Camera, Method, PointVisibility, ShadowImage, ShadowOptions};
+use super::{Camera, Light, Method, PointVisibility, ShadowImage, ShadowOptions};
 use crate::bvh::SceneBvh;
 use crate::Result;
 
 impl ShadowScene {
+    /// Shadows of any light: [`Self::hard_shadows`] or
+    /// [`Self::soft_shadows`].
+    pub fn shadows(
+        &self,
+        world: &SceneBvh,
+        camera: &Camera,
+        light: &Light,
+        options: &ShadowOptions,
+    ) -> Result<ShadowImage> {
+        match light {
+            Light::Point(l) => self.hard_shadows(world, camera, l, options),
+            Light::Area(l) => self.soft_shadows(world, camera, l, options),
+        }
+    }
+
+    /// How much of any light each point sees:
+    /// [`Self::point_visibility`] or [`Self::area_visibility`].
+    pub fn visibility(
+        &self,
+        world: &SceneBvh,
+        light: &Light,
+        points: &[Vec3],
+        options: &ShadowOptions,
+    ) -> Result<PointVisibility> {
+        match light {
+            Light::Point(l) => self.point_visibility(world, l, points, options),
+            Light::Area(l) => self.area_visibility(world, l, points, options),
+        }
+    }
+
     /// Soft shadows of `light` seen through `camera`; `world` must be the
     /// one this was made from. Each pixel holds the fraction of its
     /// `options.samples`² light samples it sees; [`Method::ShadowMap`]
@@ -39,9 +70,9 @@ impl ShadowScene {
         let mut stats = ShadowStats::default();
         let gbuffer = GBuffer::render(camera, &self.occluders);
         stats.gbuffer_ms = ms(start);
-        let target = |i: usize| self.surface_target(&gbuffer, i);
-        let n = gbuffer.receivers.len();
-        let visibility = self.resolve_area(world, light, n, target, options, &mut stats);
+        let target = |i: usize| self.surface_target(&gbuffer, camera, i);
+        let layout = (camera.width as usize, camera.height as usize);
+        let visibility = self.resolve_area(world, light, layout, target, options, &mut stats);
         stats.total_ms = ms(start);
         Ok(ShadowImage {
             width: camera.width,
@@ -65,28 +96,27 @@ impl ShadowScene {
         check_points(points)?;
         let start = Instant::now();
         let mut stats = ShadowStats::default();
-        let target = |i: usize| {
-            Some(Target {
-                point: points[i],
-                surface: None,
-            })
-        };
-        let fraction = self.resolve_area(world, light, points.len(), target, options, &mut stats);
+        let target = |i: usize| Some(Target::air(points[i]));
+        let layout = (points.len(), 1);
+        let fraction = self.resolve_area(world, light, layout, target, options, &mut stats);
         stats.total_ms = ms(start);
         Ok(PointVisibility { fraction, stats })
     }
 
-    /// The visibility of `light` from targets `0..n` by `options.method`.
+    /// The visibility of `light` from the targets by `options.method`;
+    /// they are laid out `layout.0` by `layout.1` (an image, or a row of
+    /// points), and neighbours are proven together.
     fn resolve_area(
         &self,
         world: &SceneBvh,
         light: &AreaLight,
-        n: usize,
+        layout: (usize, usize),
         target: impl Fn(usize) -> Option<Target> + Sync,
         options: &ShadowOptions,
         stats: &mut ShadowStats,
     ) -> Vec<f32> {
         let (occluders, topology) = (&self.occluders, &self.topology);
+        let n = layout.0 * layout.1;
         if options.method == Method::ShadowMap {
             let centre = light.centre;
             return resolve(
@@ -99,7 +129,7 @@ impl ShadowScene {
             light.samples(t.point, i as u64, options.seed, side, samples);
             let clear = samples
                 .iter()
-                .filter(|&&s| !world.any_hit(&shadow_ray(t.point, s)))
+                .filter(|&&s| t.faces(s) && !world.any_hit(&shadow_ray(t.point, s)))
                 .count();
             clear as f32 / per_receiver as f32
         };
@@ -119,19 +149,16 @@ impl ShadowScene {
             return v;
         }
         let t = Instant::now();
-        let proofs: Vec<Option<Cover>> = (0..n)
+        let proven: Vec<Vec<(usize, Cover)>> = groups(layout)
             .into_par_iter()
-            .map_init(Vec::new, |candidates, i| {
-                let t = target(i)?;
-                let hull = Hull::new(t.point, light.frame(t.point), occluders.scale);
-                Some(match hull {
-                    Some(h) if h.candidates(world, occluders, topology, candidates) => {
-                        h.prove(candidates, occluders, topology)
-                    }
-                    _ => Cover::Unknown,
-                })
+            .map_init(Scratch::default, |scratch, group| {
+                self.prove_group(world, light, &target, group, side, scratch)
             })
             .collect();
+        let mut proofs = vec![None; n];
+        for (i, cover) in proven.into_iter().flatten() {
+            proofs[i] = Some(cover);
+        }
         stats.classify_ms = ms(t);
         let t = Instant::now();
         let v = proofs
@@ -150,5 +177,125 @@ impl ShadowScene {
         stats.rays = stats.pip_pixels * per_receiver;
         stats.trace_ms = ms(t);
         v
+    }
+}
+
+/// Neighbouring targets are proven together, 4 x 4 pixels or 16 points
+/// in a row: larger groups walk less but sort through more triangles per
+/// receiver.
+const GROUP_SIDE: usize = 4;
+
+/// The groups of a layout: pixel blocks of an image, runs of points.
+fn groups((width, height): (usize, usize)) -> Vec<Group> {
+    let (w, h) = if height == 1 {
+        (GROUP_SIDE * GROUP_SIDE, 1)
+    } else {
+        (GROUP_SIDE, GROUP_SIDE)
+    };
+    let mut out = Vec::with_capacity(width.div_ceil(w) * height.div_ceil(h));
+    for y in (0..height).step_by(h) {
+        for x in (0..width).step_by(w) {
+            out.push(Group {
+                width,
+                x: x..(x + w).min(width),
+                y: y..(y + h).min(height),
+            });
+        }
+    }
+    out
+}
+
+/// A block of targets.
+struct Group {
+    width: usize,
+    x: std::ops::Range<usize>,
+    y: std::ops::Range<usize>,
+}
+
+impl Group {
+    fn indices(&self) -> impl Iterator<Item = usize> + '_ {
+        self.y
+            .clone()
+            .flat_map(move |y| self.x.clone().map(move |x| y * self.width + x))
+    }
+}
+
+/// What a group's proofs reuse.
+#[derive(Default)]
+struct Scratch {
+    hulls: Vec<(usize, Hull)>,
+    pool: Pool,
+    candidates: Vec<Candidate>,
+}
+
+impl ShadowScene {
+    /// The proofs of a group's targets. The group walks the world once
+    /// with planes bounding all its hulls, and each hull then sorts
+    /// through the triangles found; a group whose walk finds too many
+    /// (its pixels far apart in depth) walks hull by hull.
+    fn prove_group(
+        &self,
+        world: &SceneBvh,
+        light: &AreaLight,
+        target: &(impl Fn(usize) -> Option<Target> + Sync),
+        group: Group,
+        samples: u32,
+        scratch: &mut Scratch,
+    ) -> Vec<(usize, Cover)> {
+        let (occluders, topology) = (&self.occluders, &self.topology);
+        let mut out = Vec::with_capacity(group.x.len() * group.y.len());
+        scratch.hulls.clear();
+        for i in group.indices() {
+            let Some(t) = target(i) else { continue };
+            let frame = light.frame(t.point);
+            match light_side(&t, frame, occluders.scale) {
+                Some(false) => out.push((i, Cover::Umbra)),
+                None => out.push((i, Cover::Unknown)),
+                Some(true) => match Hull::new(t.point, frame, occluders.scale) {
+                    Some(h) => scratch.hulls.push((i, h)),
+                    None => out.push((i, Cover::Unknown)),
+                },
+            }
+        }
+        // A proof sorting through more triangles than this costs more
+        // than tracing the samples.
+        let budget = (2 * samples * samples) as usize;
+        let shared = Bounds::of(scratch.hulls.iter().map(|(_, h)| h))
+            .is_some_and(|b| b.triangles(world, occluders, &mut scratch.pool, budget));
+        for (i, hull) in &scratch.hulls {
+            let found = shared
+                || Bounds::of(std::iter::once(hull))
+                    .is_some_and(|b| b.triangles(world, occluders, &mut scratch.pool, budget));
+            let cover = if found
+                && hull.candidates(&scratch.pool, occluders, topology, &mut scratch.candidates)
+            {
+                hull.prove(&mut scratch.candidates, occluders, topology)
+            } else {
+                Cover::Unknown
+            };
+            out.push((*i, cover));
+        }
+        out
+    }
+}
+
+/// Whether every sample of the light parallelogram `[c, u, v]` lies on the
+/// side `t` receives light from (`Some(true)`), none does
+/// (`Some(false)`), or some may (`None`), allowing for the samples'
+/// rounding to `f32`.
+fn light_side(t: &Target, [c, u, v]: [DVec3; 3], scale: f64) -> Option<bool> {
+    if t.front == Vec3::ZERO {
+        return Some(true);
+    }
+    let (p, n) = (t.point.as_dvec3(), t.front.as_dvec3());
+    let reach = (c - p).length() + u.length() + v.length();
+    let margin = RAY_ERROR * scale.max(c.abs().max_element() + reach) + 1e-6 * reach;
+    let d = [c - u - v, c + u - v, c + u + v, c - u + v].map(|q| n.dot(q - p));
+    if d.iter().all(|&d| d > margin) {
+        Some(true)
+    } else if d.iter().all(|&d| d < -margin) {
+        Some(false)
+    } else {
+        None
     }
 }

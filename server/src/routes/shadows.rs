@@ -1,5 +1,6 @@
-//! `POST /v1/scenes/{id}/shadows`: hard shadows of a point light seen
-//! through a camera, by selective ray tracing on the scene's hierarchy.
+//! `POST /v1/scenes/{id}/shadows`: hard shadows of a point light or soft
+//! shadows of an area light seen through a camera, by selective ray
+//! tracing on the scene's hierarchy.
 
 use axum::extract::{Path, State};
 use axum::http::{header, HeaderMap};
@@ -7,7 +8,7 @@ use axum::response::{IntoResponse, Response};
 use axum::Json;
 use frusta_api::schemas::Binary;
 use frusta_api::shadows::{png, ShadowRequest, ShadowResponse};
-use frusta_engine::shadows::hard_shadows;
+use frusta_engine::shadows::ShadowScene;
 
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
@@ -19,9 +20,15 @@ pub const MAX_PIXELS: u64 = 1024 * 1024;
 /// texels at 32 bytes hold 50 MiB, and two requests run at once.
 pub const MAX_SHADOW_MAP_SIZE: u32 = 512;
 
+/// Most light samples per pixel a request may ask for (8 x 8): a
+/// 1024^2 image of full ray tracing then traces 67 M rays.
+pub const MAX_SAMPLES: u32 = 8;
+
 /// Body: `{"camera": {"position", "look_at", "width", "height", ...},
-/// "light": {"position"}, "method"}`. Send `Accept: image/png` for a grey
-/// image (255 lit, 0 shadowed), else JSON with the same levels and stats.
+/// "light": {"position"[, "shape", ...]}, "method", "samples"}`. Send
+/// `Accept: image/png` for a grey image (255 lit, 0 shadowed, the fraction
+/// of an area light seen between), else JSON with the same levels and
+/// stats.
 #[utoipa::path(post, path = "/v1/scenes/{id}/shadows", tag = "queries",
     params(("id" = String, Path, description = "Scene id")),
     request_body = ShadowRequest,
@@ -39,7 +46,7 @@ pub async fn render(
     JsonBody(request): JsonBody<ShadowRequest>,
 ) -> Result<Response, ApiError> {
     let entry = state.registry().get(&id)?;
-    let (camera, light, options) = request.engine();
+    let (camera, light, options) = request.engine().map_err(ApiError::Invalid)?;
     let pixels = camera.width as u64 * camera.height as u64;
     if pixels > MAX_PIXELS {
         return Err(ApiError::LimitExceeded(format!(
@@ -52,6 +59,7 @@ pub async fn render(
             options.shadow_map_size
         )));
     }
+    check_samples(options.samples)?;
     camera.check().map_err(ApiError::from_engine)?;
     light.check().map_err(ApiError::from_engine)?;
     options.check().map_err(ApiError::from_engine)?;
@@ -63,7 +71,8 @@ pub async fn render(
         .queries()
         .run(move || {
             let live = entry.read();
-            let image = hard_shadows(live.acoustic.bvh(), &camera, &light, &options);
+            let world = live.acoustic.bvh();
+            let image = ShadowScene::new(world).shadows(world, &camera, &light, &options);
             (live.acoustic.revision(), image)
         })
         .await?;
@@ -73,6 +82,16 @@ pub async fn render(
         return Ok(([(header::CONTENT_TYPE, "image/png")], bytes).into_response());
     }
     Ok(Json(ShadowResponse::new(revision, &image)).into_response())
+}
+
+/// 413 past [`MAX_SAMPLES`] per side (the engine refuses 0).
+pub fn check_samples(samples: u32) -> Result<(), ApiError> {
+    if samples > MAX_SAMPLES {
+        return Err(ApiError::LimitExceeded(format!(
+            "samples {samples} exceeds {MAX_SAMPLES} per side"
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -106,6 +125,31 @@ mod tests {
         assert_eq!(levels.len(), 32 * 24);
         assert!(levels.iter().all(|v| v == 0 || v == 255));
         assert!(selective["stats"]["receivers"].as_u64().unwrap() > 0);
+    }
+
+    #[tokio::test]
+    async fn a_panel_light_casts_a_penumbra_and_selective_equals_full() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let mut soft = body(48);
+        soft["light"] = json!({"position": [5, 3, 2.8], "shape": "rectangle", "u": [0.4, 0, 0], "v": [0, 0.3, 0]});
+        soft["samples"] = json!(3);
+        soft["seed"] = json!(5);
+        let (status, _, selective) = server
+            .send(post_json("/v1/scenes/box/shadows", &soft.to_string()))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{selective}");
+        soft["method"] = json!("full");
+        let (_, _, full) = server
+            .send(post_json("/v1/scenes/box/shadows", &soft.to_string()))
+            .await;
+        assert_eq!(selective["visibility"], full["visibility"]);
+        let levels: Vec<u8> = serde_json::from_value(full["visibility"].clone()).unwrap();
+        assert!(levels.iter().any(|v| *v > 0 && *v < 255), "no penumbra");
+        assert_eq!(
+            full["stats"]["rays"],
+            json!(full["stats"]["receivers"].as_u64().unwrap() * 9)
+        );
     }
 
     #[tokio::test]
@@ -148,12 +192,34 @@ mod tests {
         map["shadow_map_size"] = json!(8);
         let mut unknown = body(8);
         unknown["lights"] = json!([]);
+        let light = |l: serde_json::Value| {
+            let mut doc = body(8);
+            doc["light"] = l;
+            doc
+        };
+        let half_rectangle =
+            light(json!({"position": [5, 3, 2.8], "shape": "rectangle", "u": [1, 0, 0]}));
+        let radius_of_a_point = light(json!({"position": [5, 3, 2.8], "radius": 1}));
+        let flat_sphere = light(json!({"position": [5, 3, 2.8], "shape": "sphere", "radius": 0}));
+        let edgeways_disk = light(
+            json!({"position": [5, 3, 2.8], "shape": "disk", "normal": [0, 0, 0], "radius": 1}),
+        );
+        let mut many_samples = body(8);
+        many_samples["samples"] = json!(super::MAX_SAMPLES + 1);
+        let mut no_samples = body(8);
+        no_samples["samples"] = json!(0);
         for (doc, status) in [
             (same, StatusCode::UNPROCESSABLE_ENTITY),
             (dark, StatusCode::UNPROCESSABLE_ENTITY),
             (huge, StatusCode::UNPROCESSABLE_ENTITY),
             (map, StatusCode::UNPROCESSABLE_ENTITY),
             (unknown, StatusCode::UNPROCESSABLE_ENTITY),
+            (half_rectangle, StatusCode::UNPROCESSABLE_ENTITY),
+            (radius_of_a_point, StatusCode::UNPROCESSABLE_ENTITY),
+            (flat_sphere, StatusCode::UNPROCESSABLE_ENTITY),
+            (edgeways_disk, StatusCode::UNPROCESSABLE_ENTITY),
+            (many_samples, StatusCode::UNPROCESSABLE_ENTITY),
+            (no_samples, StatusCode::UNPROCESSABLE_ENTITY),
         ] {
             let (got, _, problem) = server
                 .send(post_json("/v1/scenes/shoebox/shadows", &doc.to_string()))

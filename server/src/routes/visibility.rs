@@ -1,6 +1,6 @@
-//! `POST /v1/scenes/{id}/visibility`: which of a list of points (seats,
-//! listeners, sensors) see a point light, by selective ray tracing: the
-//! direct-sound coverage of a source.
+//! `POST /v1/scenes/{id}/visibility`: how much of a light (a point or an
+//! area source) each of a list of points (seats, listeners, sensors) sees,
+//! by selective ray tracing: the direct-sound coverage of a source.
 
 use axum::extract::{Path, State};
 use axum::Json;
@@ -10,10 +10,11 @@ use frusta_engine::shadows::ShadowScene;
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
 use crate::routes::rays::MAX_RAYS;
-use crate::routes::shadows::MAX_SHADOW_MAP_SIZE;
+use crate::routes::shadows::{check_samples, MAX_SHADOW_MAP_SIZE};
 
-/// Body: `{"light": {"position": [x, y, z]}, "points": [[x, y, z], ...]}`
-/// (at most 100,000 points), optionally `method` and `shadow_map_size`.
+/// Body: `{"light": {"position": [x, y, z][, "shape", ...]}, "points":
+/// [[x, y, z], ...]}` (at most 100,000 points), optionally `method`,
+/// `shadow_map_size`, `samples` and `seed`.
 #[utoipa::path(post, path = "/v1/scenes/{id}/visibility", tag = "queries",
     params(("id" = String, Path, description = "Scene id")),
     request_body = VisibilityRequest,
@@ -36,7 +37,8 @@ pub async fn check(
             max: MAX_RAYS,
         });
     }
-    let (light, points, options) = request.engine();
+    let (light, points, options) = request.engine().map_err(ApiError::Invalid)?;
+    check_samples(options.samples)?;
     if options.shadow_map_size > MAX_SHADOW_MAP_SIZE {
         return Err(ApiError::LimitExceeded(format!(
             "shadow_map_size {} exceeds {MAX_SHADOW_MAP_SIZE}",
@@ -48,7 +50,7 @@ pub async fn check(
         .run(move || {
             let live = entry.read();
             let world = live.acoustic.bvh();
-            let answer = ShadowScene::new(world).point_visibility(world, &light, &points, &options);
+            let answer = ShadowScene::new(world).visibility(world, &light, &points, &options);
             (live.acoustic.revision(), answer)
         })
         .await?;
@@ -97,6 +99,40 @@ mod tests {
             .send(post_json("/v1/scenes/nothing/visibility", &body("full")))
             .await;
         assert_eq!(status, StatusCode::NOT_FOUND);
+    }
+
+    #[tokio::test]
+    async fn points_see_part_of_a_sphere_behind_the_panel_edge() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let points: Vec<[f32; 3]> = (0..40).map(|i| [6.0, 0.05 + 0.1 * i as f32, 1.2]).collect();
+        let body = |method: &str| {
+            json!({"light": {"position": [2, 1.5, 1.2], "shape": "sphere", "radius": 0.3},
+                "points": points, "method": method, "samples": 4})
+            .to_string()
+        };
+        let (status, _, selective) = server
+            .send(post_json("/v1/scenes/box/visibility", &body("selective")))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{selective}");
+        let (_, _, full) = server
+            .send(post_json("/v1/scenes/box/visibility", &body("full")))
+            .await;
+        assert_eq!(selective["fraction"], full["fraction"]);
+        let fraction: Vec<f32> = serde_json::from_value(full["fraction"].clone()).unwrap();
+        assert!(
+            fraction.iter().any(|f| *f > 0.0 && *f < 1.0),
+            "{fraction:?}"
+        );
+        assert!(
+            fraction.contains(&0.0) && fraction.contains(&1.0),
+            "{fraction:?}"
+        );
+        let visible: Vec<bool> = serde_json::from_value(full["visible"].clone()).unwrap();
+        assert!(visible
+            .iter()
+            .zip(&fraction)
+            .all(|(v, f)| *v == (*f == 1.0)));
     }
 
     #[tokio::test]
