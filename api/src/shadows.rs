@@ -19,9 +19,11 @@ use crate::schemas::Vector3;
 pub struct ShadowRequest {
     pub camera: CameraSpec,
     pub light: LightSpec,
-    /// `selective` (the default: exact, rays only where the light map
-    /// cannot prove a pixel), `full` (a ray per pixel) or `shadow-map`
-    /// (the plain shadow map: fast and wrong near edges).
+    /// `auto` (the default: `selective` where its light map is estimated
+    /// to pay, else `full`), `selective` (exact, rays only where the light
+    /// map, or for an area light each pixel's hull, cannot prove a pixel),
+    /// `full` (a ray per pixel and sample) or `shadow-map` (the plain
+    /// shadow map: fast and wrong near edges).
     #[serde(default)]
     pub method: ShadowMethod,
     /// Side of each cube face of the light map, texels (default 256).
@@ -166,6 +168,7 @@ impl LightSpec {
 #[serde(rename_all = "kebab-case")]
 pub enum ShadowMethod {
     #[default]
+    Auto,
     Selective,
     Full,
     ShadowMap,
@@ -197,7 +200,8 @@ pub struct VisibilityRequest {
     #[schema(value_type = Vec<Vector3>, max_items = 100000)]
     pub points: Vec<[f32; 3]>,
     /// As for shadow images; `selective` traces only the points the light
-    /// map cannot prove.
+    /// map cannot prove, `auto` (the default) traces them all where the
+    /// map would cost more than their rays.
     #[serde(default)]
     pub method: ShadowMethod,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -244,6 +248,7 @@ fn options(
     let default = ShadowOptions::default();
     ShadowOptions {
         method: match method {
+            ShadowMethod::Auto => Method::Auto,
             ShadowMethod::Selective => Method::Selective,
             ShadowMethod::Full => Method::Full,
             ShadowMethod::ShadowMap => Method::ShadowMap,

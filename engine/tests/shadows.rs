@@ -383,3 +383,27 @@ fn a_surface_receives_light_only_on_the_side_it_is_seen_from() {
         assert!(seen.iter().all(|v| *v == lit), "seen from {eye}");
     }
 }
+
+#[test]
+fn auto_uses_the_light_map_only_where_it_pays() {
+    let world = scene(vec![
+        still("floor", floor(4.0, 0.0, 4)),
+        still("box", block(Vec3::splat(0.4), Vec3::new(0.0, 0.0, 1.0), 2)),
+    ]);
+    let cam = camera(Vec3::new(0.5, -5.0, 3.0), Vec3::ZERO);
+    let light = Vec3::new(0.3, 0.6, 3.0);
+    let full = render(&world, &cam, light, Method::Full, 16);
+    // 27,648 pixels: a 16-texel map (1,536 texels) for 128 triangles pays,
+    // a 256-texel one (393,216 texels) does not.
+    for (size, pays) in [(16, true), (256, false)] {
+        let auto = render(&world, &cam, light, Method::Auto, size);
+        assert_eq!(auto.visibility, full.visibility);
+        assert_eq!(
+            auto.stats.pip_pixels < auto.stats.receivers,
+            pays,
+            "{size}: {:?}",
+            auto.stats
+        );
+        assert_eq!(auto.stats.light_map_ms > 0.0, pays);
+    }
+}

@@ -18,6 +18,8 @@ use glam::Vec3;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum Method {
+    /// Exact: selective where its light map pays, else full.
+    Auto,
     /// Exact: rays only where the light map cannot prove a pixel.
     Selective,
     /// A ray per pixel.
@@ -88,7 +90,7 @@ pub struct ShadowArgs {
     /// Area lights: the samples' seed.
     #[arg(long)]
     seed: Option<u64>,
-    #[arg(long, value_enum, default_value = "selective")]
+    #[arg(long, value_enum, default_value = "auto")]
     method: Method,
     /// Side of each light-map face, texels.
     #[arg(long)]
@@ -123,6 +125,7 @@ impl ShadowArgs {
                 ..LightSpec::point(self.light.to_array())
             },
             method: match self.method {
+                Method::Auto => ShadowMethod::Auto,
                 Method::Selective => ShadowMethod::Selective,
                 Method::Full => ShadowMethod::Full,
                 Method::ShadowMap => ShadowMethod::ShadowMap,

@@ -98,8 +98,13 @@ impl Light {
 /// How a shadow query is answered.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Method {
-    /// Rays only where the light map cannot prove the answer.
+    /// Selective where its light map is estimated to cost less than the
+    /// rays it saves, else full (few receivers, many triangles): exact
+    /// either way. Area lights: selective.
     #[default]
+    Auto,
+    /// Rays only where the light map (area lights: each receiver's hull)
+    /// cannot prove the answer.
     Selective,
     /// One ray per pixel: the reference.
     Full,
@@ -131,7 +136,7 @@ pub struct ShadowOptions {
 impl Default for ShadowOptions {
     fn default() -> Self {
         Self {
-            method: Method::Selective,
+            method: Method::Auto,
             shadow_map_size: 256,
             samples: 4,
             seed: 0,
