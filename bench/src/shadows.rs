@@ -17,8 +17,8 @@ use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::generate::BoxRoom;
 use frusta_engine::scene::{Material, Scene, SceneObject};
 use frusta_engine::shadows::{
-    AreaLight, AreaShape, Camera, Method, PointLight, PointVisibility, ShadowImage, ShadowOptions,
-    ShadowScene,
+    AreaLight, AreaShape, Camera, Light, Method, PointLight, PointVisibility, ShadowImage,
+    ShadowOptions, ShadowScene,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -267,19 +267,18 @@ fn run_scene(
     };
     // Soft: a square panel facing down.
     let shadow = |method, centre: Vec3| {
-        let options = options(method, args);
-        if soft {
+        let light = if soft {
             let shape = AreaShape::Rectangle {
                 u: Vec3::X * s.light_half,
                 v: Vec3::Y * s.light_half,
             };
-            let light = AreaLight { centre, shape };
-            scene.soft_shadows(&s.world, &camera, &light, &options)
+            Light::Area(AreaLight { centre, shape })
         } else {
-            let light = PointLight { position: centre };
-            scene.hard_shadows(&s.world, &camera, &light, &options)
-        }
-        .map_err(|e| e.to_string())
+            Light::Point(PointLight { position: centre })
+        };
+        scene
+            .shadows(&s.world, &camera, &light, &options(method, args))
+            .map_err(|e| e.to_string())
     };
     let mut times: [Vec<f64>; 4] = Default::default();
     let mut phases: [Vec<f64>; 3] = Default::default();
@@ -402,19 +401,18 @@ fn run_seats(
             Vec3::new(lo.x + (hi.x - lo.x) * i, lo.y + (hi.y - lo.y) * j, lo.z)
         })
         .collect();
+    let light = if soft {
+        Light::Area(AreaLight {
+            centre: source,
+            shape: AreaShape::Sphere { radius: 0.3 },
+        })
+    } else {
+        Light::Point(PointLight { position: source })
+    };
     let ask = |method| -> Result<PointVisibility, String> {
-        let options = options(method, args);
-        if soft {
-            let light = AreaLight {
-                centre: source,
-                shape: AreaShape::Sphere { radius: 0.3 },
-            };
-            scene.area_visibility(&s.world, &light, &points, &options)
-        } else {
-            let light = PointLight { position: source };
-            scene.point_visibility(&s.world, &light, &points, &options)
-        }
-        .map_err(|e| e.to_string())
+        scene
+            .visibility(&s.world, &light, &points, &options(method, args))
+            .map_err(|e| e.to_string())
     };
     let rounds = args.frames.max(1);
     let (mut full_ms, mut selective_ms) = (Vec::new(), Vec::new());

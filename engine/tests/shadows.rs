@@ -7,12 +7,14 @@
 mod common;
 
 use common::object;
-use common::shadow_scenes::{block, camera, convex_hull, floor, scene, still};
+use common::shadow_scenes::{
+    block, box_at_extreme_scales, camera, convex_hull, floor, scene, seen, still, wire_and_slats,
+};
 use frusta_engine::bvh::SceneBvh;
 use frusta_engine::geometry::shapes::cube;
 use frusta_engine::geometry::RigidTransform;
 use frusta_engine::shadows::{
-    hard_shadows, Camera, Method, PointLight, ShadowImage, ShadowOptions, ShadowScene,
+    hard_shadows, Camera, Light, Method, PointLight, ShadowImage, ShadowOptions, ShadowScene,
 };
 use glam::{DVec2, DVec3, Quat, Vec3};
 
@@ -143,20 +145,7 @@ fn a_box_over_a_floor_casts_its_exact_shadow() {
 
 #[test]
 fn a_thin_wire_and_slats_that_a_shadow_map_drops_are_traced() {
-    let mut objects = vec![still("floor", floor(4.0, 0.0, 4))];
-    // A 1 mm wire across the scene, and a row of 1 cm slats.
-    objects.push(still(
-        "wire",
-        block(Vec3::new(3.0, 0.0005, 0.0005), Vec3::new(0.0, 0.5, 1.0), 1),
-    ));
-    for k in 0..12 {
-        let x = -1.5 + 0.25 * k as f32;
-        objects.push(still(
-            &format!("slat{k}"),
-            block(Vec3::new(0.005, 1.0, 0.02), Vec3::new(x, -1.0, 1.5), 1),
-        ));
-    }
-    let world = scene(objects);
+    let world = scene(wire_and_slats());
     let cam = camera(Vec3::new(0.0, -4.5, 3.5), Vec3::new(0.0, -0.3, 0.0));
     let (_, full, plain_wrong) = check(&world, &cam, Vec3::new(0.1, 0.2, 3.0), 128);
     assert!(full.visibility.iter().filter(|v| **v == 0.0).count() > 200);
@@ -226,21 +215,8 @@ fn a_moving_light_over_a_deforming_occluder() {
 
 #[test]
 fn tiny_and_huge_scales_far_from_the_origin() {
-    for (scale, offset) in [
-        (1e-3f32, Vec3::ZERO),
-        (1e4, Vec3::ZERO),
-        (1.0, Vec3::new(3e4, -2e4, 1e4)),
-    ] {
-        let f = |p: Vec3| p * scale + offset;
-        let world = scene(vec![
-            still("floor", common::deformed(&floor(4.0, 0.0, 4), f)),
-            still(
-                "box",
-                common::deformed(&block(Vec3::splat(0.4), Vec3::new(0.0, 0.0, 1.0), 2), f),
-            ),
-        ]);
-        let cam = camera(f(Vec3::new(0.5, -5.0, 3.0)), f(Vec3::ZERO));
-        check(&world, &cam, f(Vec3::new(0.3, 0.6, 3.0)), 256);
+    for (world, cam, light, _) in box_at_extreme_scales() {
+        check(&world, &cam, light, 256);
     }
 }
 
@@ -334,7 +310,7 @@ fn points_in_the_air_and_on_surfaces_see_the_light_as_rays_say() {
             ..ShadowOptions::default()
         };
         shadows
-            .point_visibility(&world, &light, &points, &options)
+            .visibility(&world, &Light::Point(light), &points, &options)
             .unwrap()
     };
     let (full, selective) = (answer(Method::Full), answer(Method::Selective));
@@ -352,9 +328,9 @@ fn points_in_the_air_and_on_surfaces_see_the_light_as_rays_say() {
         points.len(),
         100.0 * traced
     );
-    let bad = shadows.point_visibility(
+    let bad = shadows.visibility(
         &world,
-        &light,
+        &Light::Point(light),
         &[Vec3::new(f32::NAN, 0.0, 0.0)],
         &ShadowOptions::default(),
     );
@@ -372,13 +348,7 @@ fn a_surface_receives_light_only_on_the_side_it_is_seen_from() {
     ] {
         let cam = camera(eye, Vec3::ZERO);
         let (_, full, _) = check(&world, &cam, light, 64);
-        let g = ShadowScene::new(&world).gbuffer(&cam).unwrap();
-        let seen: Vec<f32> = g
-            .receivers
-            .iter()
-            .zip(&full.visibility)
-            .filter_map(|(r, v)| r.map(|_| *v))
-            .collect();
+        let seen = seen(&world, &cam, &full);
         assert!(seen.len() > 10_000);
         assert!(seen.iter().all(|v| *v == lit), "seen from {eye}");
     }

@@ -7,12 +7,14 @@
 mod common;
 
 use common::object;
-use common::shadow_scenes::{block, camera, convex_hull, floor, scene, still};
+use common::shadow_scenes::{
+    block, box_at_extreme_scales, camera, convex_hull, floor, scene, seen, still, wire_and_slats,
+};
 use frusta_engine::bvh::SceneBvh;
 use frusta_engine::geometry::shapes::cube;
 use frusta_engine::geometry::RigidTransform;
 use frusta_engine::shadows::{
-    AreaLight, AreaShape, Camera, Method, ShadowImage, ShadowOptions, ShadowScene,
+    AreaLight, AreaShape, Camera, Light, Method, ShadowImage, ShadowOptions, ShadowScene,
 };
 use glam::{DVec2, Quat, Vec3};
 
@@ -184,19 +186,7 @@ fn a_box_under_a_rectangle_light_casts_its_closed_form_penumbra() {
 
 #[test]
 fn thin_geometry_under_disk_and_sphere_lights() {
-    let mut objects = vec![still("floor", floor(4.0, 0.0, 4))];
-    objects.push(still(
-        "wire",
-        block(Vec3::new(3.0, 0.0005, 0.0005), Vec3::new(0.0, 0.5, 1.0), 1),
-    ));
-    for k in 0..12 {
-        let x = -1.5 + 0.25 * k as f32;
-        objects.push(still(
-            &format!("slat{k}"),
-            block(Vec3::new(0.005, 1.0, 0.02), Vec3::new(x, -1.0, 1.5), 1),
-        ));
-    }
-    let world = scene(objects);
+    let world = scene(wire_and_slats());
     let cam = camera(Vec3::new(0.0, -4.5, 3.5), Vec3::new(0.0, -0.3, 0.0));
     let centre = Vec3::new(0.1, 0.2, 3.0);
     for shape in [
@@ -282,25 +272,8 @@ fn a_moving_light_over_a_rotated_deforming_occluder() {
 
 #[test]
 fn tiny_and_huge_scales_far_from_the_origin() {
-    for (scale, offset) in [
-        (1e-3f32, Vec3::ZERO),
-        (1e4, Vec3::ZERO),
-        (1.0, Vec3::new(3e4, -2e4, 1e4)),
-    ] {
-        let f = |p: Vec3| p * scale + offset;
-        let world = scene(vec![
-            still("floor", common::deformed(&floor(4.0, 0.0, 4), f)),
-            still(
-                "box",
-                common::deformed(&block(Vec3::splat(0.4), Vec3::new(0.0, 0.0, 1.0), 2), f),
-            ),
-        ]);
-        let cam = camera(f(Vec3::new(0.5, -5.0, 3.0)), f(Vec3::ZERO));
-        let light = rectangle(
-            f(Vec3::new(0.3, 0.6, 3.0)),
-            Vec3::X * 0.3 * scale,
-            Vec3::Y * 0.2 * scale,
-        );
+    for (world, cam, centre, scale) in box_at_extreme_scales() {
+        let light = rectangle(centre, Vec3::X * 0.3 * scale, Vec3::Y * 0.2 * scale);
         check(&world, &cam, &light, 3);
     }
 }
@@ -333,7 +306,7 @@ fn points_see_an_area_light_as_their_rays_say() {
             ..ShadowOptions::default()
         };
         shadows
-            .area_visibility(&world, &light, &points, &options)
+            .visibility(&world, &Light::Area(light), &points, &options)
             .unwrap()
     };
     let (full, selective) = (answer(Method::Full), answer(Method::Selective));
@@ -366,13 +339,7 @@ fn a_light_through_the_floor_lights_it_by_half() {
     ] {
         let cam = camera(eye, Vec3::ZERO);
         let (_, full) = check(&world, &cam, &light, 4);
-        let g = ShadowScene::new(&world).gbuffer(&cam).unwrap();
-        let seen: Vec<f32> = g
-            .receivers
-            .iter()
-            .zip(&full.visibility)
-            .filter_map(|(r, v)| r.map(|_| *v))
-            .collect();
+        let seen = seen(&world, &cam, &full);
         assert!(seen.len() > 10_000);
         let odd: Vec<&f32> = seen
             .iter()

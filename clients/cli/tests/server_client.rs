@@ -400,31 +400,20 @@ const PANEL_ROOM: &str = r#"{
   ]
 }"#;
 
-#[test]
-fn shadows_draw_the_same_png_here_and_on_the_server() {
+/// Draws `view` (a `frusta shadows` command up to `--out`) of the panel
+/// room from its file and on a server, checks both PNGs hold the same
+/// bytes and returns their grey levels; `broken`, the view with a flaw,
+/// must fail naming `flaw`.
+fn shadows_here_and_there(view: &[&str], broken: &[&str], flaw: &str) -> Vec<u8> {
     let server = Server::start();
     let doc = server.file("panel-room.json", PANEL_ROOM);
     let id = stdout(&server.frusta(&["scenes", "upload", path_str(&doc)]));
-    let view = [
-        "shadows",
-        "--camera",
-        "1,1,2.5",
-        "--look-at",
-        "6,4,0",
-        "--light",
-        "5,3,2.8",
-        "--width",
-        "48",
-        "--height",
-        "32",
-        "--out",
-    ];
     let (here, there) = (
         server.dir.0.join("here.png"),
         server.dir.0.join("there.png"),
     );
-    stdout(&server.frusta(&[&view[..], &[path_str(&here), "--scene", path_str(&doc)]].concat()));
-    stdout(&server.frusta(&[&view[..], &[path_str(&there), "--scene-id", id.trim()]].concat()));
+    stdout(&server.frusta(&[view, &[path_str(&here), "--scene", path_str(&doc)]].concat()));
+    stdout(&server.frusta(&[view, &[path_str(&there), "--scene-id", id.trim()]].concat()));
     let bytes = std::fs::read(&here).expect("PNG here");
     assert_eq!(bytes, std::fs::read(&there).expect("PNG there"));
     let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
@@ -433,78 +422,64 @@ fn shadows_draw_the_same_png_here_and_on_the_server() {
     let mut pixels = vec![0; reader.output_buffer_size().expect("size")];
     let info = reader.next_frame(&mut pixels).expect("a frame");
     assert_eq!((info.width, info.height), (48, 32));
-    let pixels = &pixels[..info.buffer_size()];
+    pixels.truncate(info.buffer_size());
+    let bad = server.frusta(&[broken, &[path_str(&here), "--scene-id", id.trim()]].concat());
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains(flaw),
+        "{bad:?}"
+    );
+    pixels
+}
+
+const PANEL_VIEW: [&str; 12] = [
+    "shadows",
+    "--camera",
+    "1,1,2.5",
+    "--look-at",
+    "6,4,0",
+    "--light",
+    "5,3,2.8",
+    "--width",
+    "48",
+    "--height",
+    "32",
+    "--out",
+];
+
+#[test]
+fn shadows_draw_the_same_png_here_and_on_the_server() {
+    let mut flat = PANEL_VIEW;
+    flat[8] = "0";
+    let pixels = shadows_here_and_there(&PANEL_VIEW, &flat, "camera.width");
     assert!(
         pixels.contains(&0) && pixels.contains(&255),
         "the panel casts a shadow"
-    );
-    let mut flat = view.to_vec();
-    flat[8] = "0";
-    let bad = server.frusta(&[&flat[..], &[path_str(&here), "--scene-id", id.trim()]].concat());
-    assert!(!bad.status.success());
-    assert!(
-        String::from_utf8_lossy(&bad.stderr).contains("camera.width"),
-        "{bad:?}"
     );
 }
 
 #[test]
 fn soft_shadows_draw_the_same_png_here_and_on_the_server() {
-    let server = Server::start();
-    let doc = server.file("panel-room.json", PANEL_ROOM);
-    let id = stdout(&server.frusta(&["scenes", "upload", path_str(&doc)]));
-    let view = [
-        "shadows",
-        "--camera",
-        "1,1,2.5",
-        "--look-at",
-        "6,4,0",
-        "--light",
-        "5,3,2.8",
+    let disk = [
         "--light-shape",
         "disk",
         "--light-normal",
         "0,0,-1",
-        "--light-radius",
-        "0.4",
         "--samples",
         "3",
-        "--width",
-        "48",
-        "--height",
-        "32",
-        "--out",
     ];
-    let (here, there) = (
-        server.dir.0.join("soft-here.png"),
-        server.dir.0.join("soft-there.png"),
-    );
-    stdout(&server.frusta(&[&view[..], &[path_str(&here), "--scene", path_str(&doc)]].concat()));
-    stdout(&server.frusta(&[&view[..], &[path_str(&there), "--scene-id", id.trim()]].concat()));
-    let bytes = std::fs::read(&here).expect("PNG here");
-    assert_eq!(bytes, std::fs::read(&there).expect("PNG there"));
-    let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
-        .read_info()
-        .expect("a PNG");
-    let mut pixels = vec![0; reader.output_buffer_size().expect("size")];
-    let info = reader.next_frame(&mut pixels).expect("a frame");
-    let pixels = &pixels[..info.buffer_size()];
+    let view = [
+        &PANEL_VIEW[..7],
+        &disk,
+        &["--light-radius", "0.4"],
+        &PANEL_VIEW[7..],
+    ]
+    .concat();
+    // A disk without its radius.
+    let broken = [&PANEL_VIEW[..7], &disk, &PANEL_VIEW[7..]].concat();
+    let pixels = shadows_here_and_there(&view, &broken, "radius");
     assert!(
         pixels.iter().any(|p| *p > 0 && *p < 255),
         "the disk casts a penumbra"
-    );
-    // A disk without its radius.
-    let bad = server.frusta(
-        &[
-            &view[..11],
-            &view[13..],
-            &[path_str(&here), "--scene-id", id.trim()],
-        ]
-        .concat(),
-    );
-    assert!(!bad.status.success());
-    assert!(
-        String::from_utf8_lossy(&bad.stderr).contains("radius"),
-        "{bad:?}"
     );
 }

@@ -44,17 +44,17 @@
 
 mod area;
 mod camera;
-mod hard;
 pub mod light_map;
 mod occluders;
 mod penumbra;
 mod raster;
+mod scene;
 mod selective;
 mod soft;
 
 pub use area::{AreaLight, AreaShape};
 pub use camera::{Camera, GBuffer, Receiver, MAX_IMAGE_PIXELS};
-pub use hard::{hard_shadows, PointVisibility, ShadowImage, ShadowScene, MAX_POINTS};
+pub use scene::{hard_shadows, PointVisibility, ShadowImage, ShadowScene, MAX_POINTS};
 pub use selective::{shadow_ray, ShadowStats, SHADOW_T_MIN};
 
 use glam::Vec3;

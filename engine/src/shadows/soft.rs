@@ -12,101 +12,18 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::area::AreaLight;
-use super::camera::GBuffer;
-use super::hard::{check_points, ShadowScene};
 use super::light_map::RAY_ERROR;
 use super::penumbra::{Bounds, Candidate, Cover, Hull, Pool};
+use super::scene::ShadowScene;
 use super::selective::{ms, resolve, shadow_ray, ShadowStats, Target};
-use super::{Camera, Light, Method, PointVisibility, ShadowImage, ShadowOptions};
+use super::{Method, ShadowOptions};
 use crate::bvh::SceneBvh;
-use crate::Result;
 
 impl ShadowScene {
-    /// Shadows of any light: [`Self::hard_shadows`] or
-    /// [`Self::soft_shadows`].
-    pub fn shadows(
-        &self,
-        world: &SceneBvh,
-        camera: &Camera,
-        light: &Light,
-        options: &ShadowOptions,
-    ) -> Result<ShadowImage> {
-        match light {
-            Light::Point(l) => self.hard_shadows(world, camera, l, options),
-            Light::Area(l) => self.soft_shadows(world, camera, l, options),
-        }
-    }
-
-    /// How much of any light each point sees:
-    /// [`Self::point_visibility`] or [`Self::area_visibility`].
-    pub fn visibility(
-        &self,
-        world: &SceneBvh,
-        light: &Light,
-        points: &[Vec3],
-        options: &ShadowOptions,
-    ) -> Result<PointVisibility> {
-        match light {
-            Light::Point(l) => self.point_visibility(world, l, points, options),
-            Light::Area(l) => self.area_visibility(world, l, points, options),
-        }
-    }
-
-    /// Soft shadows of `light` seen through `camera`; `world` must be the
-    /// one this was made from. Each pixel holds the fraction of its
-    /// `options.samples`² light samples it sees; [`Method::ShadowMap`]
-    /// reads the plain map of the light's centre (hard, the baseline).
-    pub fn soft_shadows(
-        &self,
-        world: &SceneBvh,
-        camera: &Camera,
-        light: &AreaLight,
-        options: &ShadowOptions,
-    ) -> Result<ShadowImage> {
-        camera.check()?;
-        light.check()?;
-        options.check()?;
-        let start = Instant::now();
-        let mut stats = ShadowStats::default();
-        let gbuffer = GBuffer::render(camera, &self.occluders);
-        stats.gbuffer_ms = ms(start);
-        let target = |i: usize| self.surface_target(&gbuffer, camera, i);
-        let layout = (camera.width as usize, camera.height as usize);
-        let visibility = self.resolve_area(world, light, layout, target, options, &mut stats);
-        stats.total_ms = ms(start);
-        Ok(ShadowImage {
-            width: camera.width,
-            height: camera.height,
-            visibility,
-            stats,
-        })
-    }
-
-    /// How much of `light` each of `points` (anywhere) sees, by the same
-    /// samples and proofs as [`Self::soft_shadows`].
-    pub fn area_visibility(
-        &self,
-        world: &SceneBvh,
-        light: &AreaLight,
-        points: &[Vec3],
-        options: &ShadowOptions,
-    ) -> Result<PointVisibility> {
-        light.check()?;
-        options.check()?;
-        check_points(points)?;
-        let start = Instant::now();
-        let mut stats = ShadowStats::default();
-        let target = |i: usize| Some(Target::air(points[i]));
-        let layout = (points.len(), 1);
-        let fraction = self.resolve_area(world, light, layout, target, options, &mut stats);
-        stats.total_ms = ms(start);
-        Ok(PointVisibility { fraction, stats })
-    }
-
     /// The visibility of `light` from the targets by `options.method`;
     /// they are laid out `layout.0` by `layout.1` (an image, or a row of
     /// points), and neighbours are proven together.
-    fn resolve_area(
+    pub(super) fn resolve_area(
         &self,
         world: &SceneBvh,
         light: &AreaLight,

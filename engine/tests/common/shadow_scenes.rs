@@ -4,7 +4,7 @@ use frusta_engine::bvh::{BuildOptions, SceneBvh};
 use frusta_engine::geometry::shapes::cube;
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::{Material, Scene, SceneObject};
-use frusta_engine::shadows::Camera;
+use frusta_engine::shadows::{Camera, ShadowImage, ShadowScene};
 use glam::{DVec2, Vec3};
 
 use super::{deformed, grid_triangles, object};
@@ -70,4 +70,58 @@ pub fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
         hull.push(next);
     }
     hull
+}
+
+/// A floor under a 1 mm wire across the scene and a row of 1 cm slats:
+/// geometry a shadow map drops.
+pub fn wire_and_slats() -> Vec<SceneObject> {
+    let mut objects = vec![still("floor", floor(4.0, 0.0, 4))];
+    objects.push(still(
+        "wire",
+        block(Vec3::new(3.0, 0.0005, 0.0005), Vec3::new(0.0, 0.5, 1.0), 1),
+    ));
+    for k in 0..12 {
+        let x = -1.5 + 0.25 * k as f32;
+        objects.push(still(
+            &format!("slat{k}"),
+            block(Vec3::new(0.005, 1.0, 0.02), Vec3::new(x, -1.0, 1.5), 1),
+        ));
+    }
+    objects
+}
+
+/// The visibility of the pixels of `image` that see a surface of `world`
+/// through `camera`.
+pub fn seen(world: &SceneBvh, camera: &Camera, image: &ShadowImage) -> Vec<f32> {
+    let g = ShadowScene::new(world).gbuffer(camera).unwrap();
+    g.receivers
+        .iter()
+        .zip(&image.visibility)
+        .filter_map(|(r, v)| r.map(|_| *v))
+        .collect()
+}
+
+/// A box over a floor shrunk to a millimetre scale, grown ten
+/// thousandfold, and moved 30 km from the origin: each world, its camera,
+/// where its light goes, and its scale.
+pub fn box_at_extreme_scales() -> Vec<(SceneBvh, Camera, Vec3, f32)> {
+    [
+        (1e-3f32, Vec3::ZERO),
+        (1e4, Vec3::ZERO),
+        (1.0, Vec3::new(3e4, -2e4, 1e4)),
+    ]
+    .into_iter()
+    .map(|(scale, offset)| {
+        let f = |p: Vec3| p * scale + offset;
+        let world = scene(vec![
+            still("floor", deformed(&floor(4.0, 0.0, 4), f)),
+            still(
+                "box",
+                deformed(&block(Vec3::splat(0.4), Vec3::new(0.0, 0.0, 1.0), 2), f),
+            ),
+        ]);
+        let cam = camera(f(Vec3::new(0.5, -5.0, 3.0)), f(Vec3::ZERO));
+        (world, cam, f(Vec3::new(0.3, 0.6, 3.0)), scale)
+    })
+    .collect()
 }

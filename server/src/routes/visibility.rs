@@ -64,52 +64,15 @@ mod tests {
     use axum::http::StatusCode;
     use serde_json::json;
 
-    #[tokio::test]
-    async fn the_panel_hides_the_points_behind_it() {
-        let server = TestServer::new();
-        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
-        // The panel stands in x = 4, y 1..2, z 0.5..2; the light at x = 2.
-        let points: Vec<[f32; 3]> = (0..40).map(|i| [6.0, 0.05 + 0.1 * i as f32, 1.2]).collect();
-        let body = |method: &str| {
-            json!({"light": {"position": [2, 1.5, 1.2]}, "points": points, "method": method})
-                .to_string()
-        };
-        let (status, _, selective) = server
-            .send(post_json("/v1/scenes/box/visibility", &body("selective")))
-            .await;
-        assert_eq!(status, StatusCode::OK, "{selective}");
-        let (_, _, full) = server
-            .send(post_json("/v1/scenes/box/visibility", &body("full")))
-            .await;
-        assert_eq!(selective["visible"], full["visible"]);
-        let visible: Vec<bool> = serde_json::from_value(full["visible"].clone()).unwrap();
-        // Seen from the light, the panel hides y 0.5 to 2.5 at x = 6.
-        assert!(
-            visible.iter().any(|v| !v) && visible[0] && visible[39],
-            "{visible:?}"
-        );
-        assert_eq!(selective["stats"]["receivers"], 40);
-        let bad =
-            json!({"light": {"position": [2, 1.5, 1.2]}, "points": [[0, 0, 1e39]]}).to_string();
-        let (status, _, _) = server
-            .send(post_json("/v1/scenes/box/visibility", &bad))
-            .await;
-        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
-        let (status, _, _) = server
-            .send(post_json("/v1/scenes/nothing/visibility", &body("full")))
-            .await;
-        assert_eq!(status, StatusCode::NOT_FOUND);
-    }
-
-    #[tokio::test]
-    async fn points_see_part_of_a_sphere_behind_the_panel_edge() {
+    /// 40 points in a row behind the box scene's panel (it stands in
+    /// x = 4, y 1..2, z 0.5..2) asked about `light` with 16 samples,
+    /// selectively and by full ray tracing, which must agree.
+    async fn behind_the_panel(light: serde_json::Value) -> (TestServer, serde_json::Value) {
         let server = TestServer::new();
         server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
         let points: Vec<[f32; 3]> = (0..40).map(|i| [6.0, 0.05 + 0.1 * i as f32, 1.2]).collect();
         let body = |method: &str| {
-            json!({"light": {"position": [2, 1.5, 1.2], "shape": "sphere", "radius": 0.3},
-                "points": points, "method": method, "samples": 4})
-            .to_string()
+            json!({"light": light, "points": points, "method": method, "samples": 4}).to_string()
         };
         let (status, _, selective) = server
             .send(post_json("/v1/scenes/box/visibility", &body("selective")))
@@ -119,6 +82,36 @@ mod tests {
             .send(post_json("/v1/scenes/box/visibility", &body("full")))
             .await;
         assert_eq!(selective["fraction"], full["fraction"]);
+        assert_eq!(selective["visible"], full["visible"]);
+        assert_eq!(selective["stats"]["receivers"], 40);
+        (server, full)
+    }
+
+    #[tokio::test]
+    async fn the_panel_hides_the_points_behind_it() {
+        let (server, full) = behind_the_panel(json!({"position": [2, 1.5, 1.2]})).await;
+        let visible: Vec<bool> = serde_json::from_value(full["visible"].clone()).unwrap();
+        // Seen from the light, the panel hides y 0.5 to 2.5 at x = 6.
+        assert!(
+            visible.iter().any(|v| !v) && visible[0] && visible[39],
+            "{visible:?}"
+        );
+        let bad =
+            json!({"light": {"position": [2, 1.5, 1.2]}, "points": [[0, 0, 1e39]]}).to_string();
+        let (status, _, _) = server
+            .send(post_json("/v1/scenes/box/visibility", &bad))
+            .await;
+        assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+        let (status, _, _) = server
+            .send(post_json("/v1/scenes/nothing/visibility", &bad))
+            .await;
+        assert_eq!(status, StatusCode::NOT_FOUND);
+    }
+
+    #[tokio::test]
+    async fn points_see_part_of_a_sphere_behind_the_panel_edge() {
+        let light = json!({"position": [2, 1.5, 1.2], "shape": "sphere", "radius": 0.3});
+        let (_, full) = behind_the_panel(light).await;
         let fraction: Vec<f32> = serde_json::from_value(full["fraction"].clone()).unwrap();
         assert!(
             fraction.iter().any(|f| *f > 0.0 && *f < 1.0),

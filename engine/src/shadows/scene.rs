@@ -1,5 +1,5 @@
-//! Hard shadows of a point light seen through a camera, and the scene
-//! data every shadow query keeps.
+//! The scene data every shadow query keeps, and the queries: shadow
+//! images through a camera and the visibility of a light from points.
 
 use std::time::Instant;
 
@@ -8,7 +8,7 @@ use glam::Vec3;
 use super::camera::{Camera, GBuffer};
 use super::occluders::{Occluders, Topology};
 use super::selective::{ms, resolve, ShadowStats, Target};
-use super::{PointLight, ShadowOptions};
+use super::{AreaLight, Light, PointLight, ShadowOptions};
 use crate::bvh::SceneBvh;
 use crate::{Error, Result};
 
@@ -63,13 +63,49 @@ impl ShadowScene {
         Ok(GBuffer::render(camera, &self.occluders))
     }
 
-    /// Which of `points` (anywhere: listeners, seats) see `light`;
-    /// `world` must be the one this was made from. Selective as for
-    /// images: a point is traced only where the light map cannot prove it.
-    pub fn point_visibility(
+    /// Shadows of `light` seen through `camera`; `world` must be the one
+    /// this was made from. Each pixel holds the fraction of the light its
+    /// surface sees: 0 or 1 for a point light, a share of the light's
+    /// `options.samples`² samples for an area light.
+    ///
+    /// Every method shares the G-buffer; they differ only in how each
+    /// receiver's visibility is decided, so their images are comparable
+    /// pixel for pixel, and [`Method::Selective`] equals [`Method::Full`]
+    /// on every one. For an area light, [`Method::ShadowMap`] reads the
+    /// plain map of its centre (hard: the baseline).
+    pub fn shadows(
         &self,
         world: &SceneBvh,
-        light: &PointLight,
+        camera: &Camera,
+        light: &Light,
+        options: &ShadowOptions,
+    ) -> Result<ShadowImage> {
+        camera.check()?;
+        light.check()?;
+        options.check()?;
+        let start = Instant::now();
+        let mut stats = ShadowStats::default();
+        let gbuffer = GBuffer::render(camera, &self.occluders);
+        stats.gbuffer_ms = ms(start);
+        let target = |i: usize| self.surface_target(&gbuffer, camera, i);
+        let layout = (camera.width as usize, camera.height as usize);
+        let visibility = self.resolve_light(world, light, layout, target, options, &mut stats);
+        stats.total_ms = ms(start);
+        Ok(ShadowImage {
+            width: camera.width,
+            height: camera.height,
+            visibility,
+            stats,
+        })
+    }
+
+    /// How much of `light` each of `points` (anywhere: listeners, seats)
+    /// sees, by the same methods as [`Self::shadows`]; `world` must be the
+    /// one this was made from.
+    pub fn visibility(
+        &self,
+        world: &SceneBvh,
+        light: &Light,
         points: &[Vec3],
         options: &ShadowOptions,
     ) -> Result<PointVisibility> {
@@ -79,27 +115,13 @@ impl ShadowScene {
         let start = Instant::now();
         let mut stats = ShadowStats::default();
         let target = |i: usize| Some(Target::air(points[i]));
-        let v = resolve(
-            &self.occluders,
-            &self.topology,
-            world,
-            light.position,
-            points.len(),
-            target,
-            options,
-            &mut stats,
-        );
+        let layout = (points.len(), 1);
+        let fraction = self.resolve_light(world, light, layout, target, options, &mut stats);
         stats.total_ms = ms(start);
-        Ok(PointVisibility { fraction: v, stats })
+        Ok(PointVisibility { fraction, stats })
     }
 
-    /// Hard shadows of `light` seen through `camera`; `world` must be the
-    /// one this was made from.
-    ///
-    /// Every method shares the G-buffer; they differ only in how each
-    /// receiver's visibility is decided, so their images are comparable
-    /// pixel for pixel, and [`Method::Selective`] equals [`Method::Full`]
-    /// on every one.
+    /// [`Self::shadows`] of a point light.
     pub fn hard_shadows(
         &self,
         world: &SceneBvh,
@@ -107,33 +129,44 @@ impl ShadowScene {
         light: &PointLight,
         options: &ShadowOptions,
     ) -> Result<ShadowImage> {
-        camera.check()?;
-        light.check()?;
-        options.check()?;
-        let start = Instant::now();
-        let mut stats = ShadowStats::default();
-        let occluders = &self.occluders;
-        let gbuffer = GBuffer::render(camera, occluders);
-        stats.gbuffer_ms = ms(start);
-        let target = |i: usize| self.surface_target(&gbuffer, camera, i);
-        let n = gbuffer.receivers.len();
-        let visibility = resolve(
-            occluders,
-            &self.topology,
-            world,
-            light.position,
-            n,
-            target,
-            options,
-            &mut stats,
-        );
-        stats.total_ms = ms(start);
-        Ok(ShadowImage {
-            width: camera.width,
-            height: camera.height,
-            visibility,
-            stats,
-        })
+        self.shadows(world, camera, &Light::Point(*light), options)
+    }
+
+    /// [`Self::shadows`] of an area light.
+    pub fn soft_shadows(
+        &self,
+        world: &SceneBvh,
+        camera: &Camera,
+        light: &AreaLight,
+        options: &ShadowOptions,
+    ) -> Result<ShadowImage> {
+        self.shadows(world, camera, &Light::Area(*light), options)
+    }
+
+    /// The visibility of `light` from the targets, laid out `layout.0` by
+    /// `layout.1` (an image, or a row of points).
+    fn resolve_light(
+        &self,
+        world: &SceneBvh,
+        light: &Light,
+        layout: (usize, usize),
+        target: impl Fn(usize) -> Option<Target> + Sync,
+        options: &ShadowOptions,
+        stats: &mut ShadowStats,
+    ) -> Vec<f32> {
+        match light {
+            Light::Point(l) => resolve(
+                &self.occluders,
+                &self.topology,
+                world,
+                l.position,
+                layout.0 * layout.1,
+                target,
+                options,
+                stats,
+            ),
+            Light::Area(l) => self.resolve_area(world, l, layout, target, options, stats),
+        }
     }
 }
 
