@@ -8,4 +8,5 @@ mod ray;
 
 pub use crate::bvh::{ObjectStats, SceneBvh, SceneBvhStats};
 pub use packet::RayPacket;
+pub(crate) use ray::local;
 pub use ray::SceneHit;

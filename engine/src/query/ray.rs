@@ -29,7 +29,7 @@ pub struct SceneHit {
 /// The ray in an object's frame with range end `t_max`; rigid, so `t` is
 /// unchanged.
 #[inline]
-pub(super) fn local(inst: &Instance, ray: &Ray, t_max: f32) -> Ray {
+pub(crate) fn local(inst: &Instance, ray: &Ray, t_max: f32) -> Ray {
     if inst.is_identity() {
         return Ray { t_max, ..*ray };
     }

@@ -29,7 +29,8 @@ use super::selective::SHADOW_T_MIN;
 use crate::bvh::traverse::NodeTest;
 use crate::bvh::traverse::{Flow, FrustumTest};
 use crate::bvh::SceneBvh;
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, Ray, WatertightRay};
+use crate::query::local;
 
 /// What a receiver's hull proves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -474,6 +475,39 @@ impl Bounds {
         });
         !full
     }
+}
+
+/// Whether `ray` meets one of `candidates` (grouped by object), by the
+/// test and in the frames [`SceneBvh::any_hit`] uses: its answer when the
+/// candidates hold every triangle the ray may meet, as a hull's complete
+/// list does for a ray inside it (the tree's boxes only skip triangles
+/// the test would miss).
+pub(super) fn any_hit_among(world: &SceneBvh, candidates: &[Candidate], ray: &Ray) -> bool {
+    if !ray.is_valid() {
+        return false;
+    }
+    let mut current = None;
+    for c in candidates {
+        let object = c.object as usize;
+        let inst = &world.instances()[object];
+        if current.as_ref().is_none_or(|(o, _)| *o != object) {
+            let local = local(inst, ray, ray.t_max);
+            current = Some((
+                object,
+                local
+                    .is_valid()
+                    .then(|| (WatertightRay::new(&local), local)),
+            ));
+        }
+        let Some((_, Some((test, local)))) = &current else {
+            continue;
+        };
+        let [a, b, t] = inst.bvh().leaf_triangles()[c.slot as usize];
+        if test.intersect(a, b, t, local.t_min, local.t_max).is_some() {
+            return true;
+        }
+    }
+    false
 }
 
 /// `v` longer by `by`.

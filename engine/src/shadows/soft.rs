@@ -13,11 +13,12 @@ use rayon::prelude::*;
 
 use super::area::AreaLight;
 use super::light_map::RAY_ERROR;
-use super::penumbra::{Bounds, Candidate, Cover, Hull, Pool};
+use super::penumbra::{any_hit_among, Bounds, Candidate, Cover, Hull, Pool};
 use super::scene::ShadowScene;
 use super::selective::{ms, resolve, shadow_ray, ShadowStats, Target};
 use super::{Method, ShadowOptions};
 use crate::bvh::SceneBvh;
+use crate::geometry::Ray;
 
 impl ShadowScene {
     /// The visibility of `light` from the targets by `options.method`;
@@ -40,15 +41,9 @@ impl ShadowScene {
                 occluders, topology, world, centre, n, target, options, stats,
             );
         }
-        let side = options.samples;
-        let per_receiver = (side * side) as u64;
+        let per_receiver = (options.samples * options.samples) as u64;
         let traced = |i: usize, t: &Target, samples: &mut Vec<Vec3>| {
-            light.samples(t.point, i as u64, options.seed, side, samples);
-            let clear = samples
-                .iter()
-                .filter(|&&s| t.faces(s) && !world.any_hit(&shadow_ray(t.point, s)))
-                .count();
-            clear as f32 / per_receiver as f32
+            seen_share(light, t, i, options, samples, |r| world.any_hit(r))
         };
         stats.receivers = (0..n)
             .into_par_iter()
@@ -66,30 +61,29 @@ impl ShadowScene {
             return v;
         }
         let t = Instant::now();
-        let proven: Vec<Vec<(usize, Cover)>> = groups(layout)
+        let proven: Vec<Vec<(usize, Answer)>> = groups(layout)
             .into_par_iter()
             .map_init(Scratch::default, |scratch, group| {
-                self.prove_group(world, light, &target, group, side, scratch)
+                self.prove_group(world, light, &target, group, options, scratch)
             })
             .collect();
-        let mut proofs = vec![None; n];
-        for (i, cover) in proven.into_iter().flatten() {
-            proofs[i] = Some(cover);
+        let mut answers = vec![Answer::Proven(1.0); n];
+        for (i, answer) in proven.into_iter().flatten() {
+            answers[i] = answer;
         }
         stats.classify_ms = ms(t);
         let t = Instant::now();
-        let v = proofs
+        let v = answers
             .par_iter()
             .enumerate()
-            .map_init(Vec::new, |s, (i, p)| match p {
-                Some(Cover::Lit) | None => 1.0,
-                Some(Cover::Umbra) => 0.0,
-                Some(Cover::Unknown) => target(i).map_or(1.0, |t| traced(i, &t, s)),
+            .map_init(Vec::new, |s, (i, a)| match *a {
+                Answer::Proven(v) | Answer::Traced(v) => v,
+                Answer::Open => target(i).map_or(1.0, |t| traced(i, &t, s)),
             })
             .collect();
-        stats.pip_pixels = proofs
+        stats.pip_pixels = answers
             .iter()
-            .filter(|p| **p == Some(Cover::Unknown))
+            .filter(|a| !matches!(a, Answer::Proven(_)))
             .count() as u64;
         stats.rays = stats.pip_pixels * per_receiver;
         stats.trace_ms = ms(t);
@@ -143,22 +137,56 @@ struct Scratch {
     hulls: Vec<(usize, Hull)>,
     pool: Pool,
     candidates: Vec<Candidate>,
+    samples: Vec<Vec3>,
+}
+
+/// What a group's pass settles about a receiver.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Answer {
+    /// Proven lit (1) or in the umbra (0).
+    Proven(f32),
+    /// The share of samples seen, its rays traced against the proof's
+    /// complete list of the triangles they may meet.
+    Traced(f32),
+    /// Left to rays through the world.
+    Open,
+}
+
+/// The share of `light`'s samples that target `i` (`t`) sees, `blocked`
+/// telling whether a shadow ray meets anything.
+fn seen_share(
+    light: &AreaLight,
+    t: &Target,
+    i: usize,
+    options: &ShadowOptions,
+    samples: &mut Vec<Vec3>,
+    blocked: impl Fn(&Ray) -> bool,
+) -> f32 {
+    let side = options.samples;
+    light.samples(t.point, i as u64, options.seed, side, samples);
+    let clear = samples
+        .iter()
+        .filter(|&&s| t.faces(s) && !blocked(&shadow_ray(t.point, s)))
+        .count();
+    clear as f32 / (side * side) as f32
 }
 
 impl ShadowScene {
     /// The proofs of a group's targets. The group walks the world once
     /// with planes bounding all its hulls, and each hull then sorts
     /// through the triangles found; a group whose walk finds too many
-    /// (its pixels far apart in depth) walks hull by hull.
+    /// (its pixels far apart in depth) walks hull by hull. A receiver
+    /// left unproven with a complete list of the triangles its hull may
+    /// meet has its samples traced against those alone.
     fn prove_group(
         &self,
         world: &SceneBvh,
         light: &AreaLight,
         target: &(impl Fn(usize) -> Option<Target> + Sync),
         group: Group,
-        samples: u32,
+        options: &ShadowOptions,
         scratch: &mut Scratch,
-    ) -> Vec<(usize, Cover)> {
+    ) -> Vec<(usize, Answer)> {
         let (occluders, topology) = (&self.occluders, &self.topology);
         let mut out = Vec::with_capacity(group.x.len() * group.y.len());
         scratch.hulls.clear();
@@ -166,31 +194,46 @@ impl ShadowScene {
             let Some(t) = target(i) else { continue };
             let frame = light.frame(t.point);
             match light_side(&t, frame, occluders.scale) {
-                Some(false) => out.push((i, Cover::Umbra)),
-                None => out.push((i, Cover::Unknown)),
+                Some(false) => out.push((i, Answer::Proven(0.0))),
+                None => out.push((i, Answer::Open)),
                 Some(true) => match Hull::new(t.point, frame, occluders.scale) {
                     Some(h) => scratch.hulls.push((i, h)),
-                    None => out.push((i, Cover::Unknown)),
+                    None => out.push((i, Answer::Open)),
                 },
             }
         }
         // A proof sorting through more triangles than this costs more
         // than tracing the samples.
-        let budget = (2 * samples * samples) as usize;
+        let budget = (2 * options.samples * options.samples) as usize;
         let shared = Bounds::of(scratch.hulls.iter().map(|(_, h)| h))
             .is_some_and(|b| b.triangles(world, occluders, &mut scratch.pool, budget));
         for (i, hull) in &scratch.hulls {
             let found = shared
                 || Bounds::of(std::iter::once(hull))
                     .is_some_and(|b| b.triangles(world, occluders, &mut scratch.pool, budget));
-            let cover = if found
-                && hull.candidates(&scratch.pool, occluders, topology, &mut scratch.candidates)
-            {
-                hull.prove(&mut scratch.candidates, occluders, topology)
+            let complete = found
+                && hull.candidates(&scratch.pool, occluders, topology, &mut scratch.candidates);
+            let answer = if !complete {
+                Answer::Open
             } else {
-                Cover::Unknown
+                match hull.prove(&mut scratch.candidates, occluders, topology) {
+                    Cover::Lit => Answer::Proven(1.0),
+                    Cover::Umbra => Answer::Proven(0.0),
+                    Cover::Unknown => {
+                        let t = target(*i).expect("a hull has a target");
+                        let among = &scratch.candidates;
+                        Answer::Traced(seen_share(
+                            light,
+                            &t,
+                            *i,
+                            options,
+                            &mut scratch.samples,
+                            |r| any_hit_among(world, among, r),
+                        ))
+                    }
+                }
             };
-            out.push((*i, cover));
+            out.push((*i, answer));
         }
         out
     }
