@@ -262,10 +262,32 @@ pub async fn problem_documents(request: Request, next: Next) -> Response {
 }
 
 /// `axum::Json` whose rejection is an [`ApiError`], so malformed bodies
-/// come out as problem documents rather than axum's plain text.
-#[derive(FromRequest)]
-#[from_request(via(axum::Json), rejection(ApiError))]
+/// come out as problem documents rather than axum's plain text. The body
+/// must be a JSON object: serde reads a struct whose fields all have
+/// defaults from an array too, and `[]` is no request.
 pub struct JsonBody<T>(pub T);
+
+impl<T: serde::de::DeserializeOwned, S: Send + Sync> FromRequest<S> for JsonBody<T> {
+    type Rejection = ApiError;
+
+    async fn from_request(req: Request, state: &S) -> Result<Self, ApiError> {
+        let (parts, body) = req.into_parts();
+        let bytes =
+            axum::body::Bytes::from_request(Request::from_parts(parts.clone(), body), state)
+                .await
+                .map_err(|e| ApiError::Http {
+                    status: e.status(),
+                    detail: e.body_text(),
+                })?;
+        let first = bytes.iter().find(|b| !b.is_ascii_whitespace());
+        if first.is_some_and(|&b| b != b'{') {
+            return Err(ApiError::Invalid("the body must be a JSON object".into()));
+        }
+        let request = Request::from_parts(parts, axum::body::Body::from(bytes));
+        let axum::Json(value) = axum::Json::<T>::from_request(request, state).await?;
+        Ok(Self(value))
+    }
+}
 
 #[cfg(test)]
 mod tests {
@@ -274,6 +296,28 @@ mod tests {
 
     use super::ApiError;
     use crate::routes::test_support::*;
+
+    #[tokio::test]
+    async fn a_body_that_is_not_an_object_is_refused() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        // All of a collision request's fields have defaults: serde alone
+        // would read `[]` as one.
+        for body in ["[]", " [1]", "3", "\"x\"", "null"] {
+            let (status, _, problem) = server
+                .send(post_json("/v1/scenes/box/collisions", body))
+                .await;
+            assert_eq!(
+                status,
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "{body}: {problem}"
+            );
+        }
+        let (status, _, _) = server
+            .send(post_json("/v1/scenes/box/collisions", " {}"))
+            .await;
+        assert_eq!(status, StatusCode::OK);
+    }
 
     /// Engine errors map by their cause: input names the field in a 4xx,
     /// limits are 422, and a failure of the server's own environment (an
