@@ -31,9 +31,10 @@ pub struct ShadowRequest {
     #[schema(minimum = 16, maximum = 512)]
     pub shadow_map_size: Option<u32>,
     /// Area lights: each receiver draws `samples x samples` stratified
-    /// samples of the light (default 4: 16 samples).
+    /// samples of the light (default 4: 16 samples); at most 2^24 rays in
+    /// all (receivers x samples^2).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1, maximum = 16)]
+    #[schema(minimum = 1, maximum = 8)]
     pub samples: Option<u32>,
     /// Area lights: the samples' seed (default 0); the same seed gives the
     /// same image.
@@ -209,7 +210,7 @@ pub struct VisibilityRequest {
     pub shadow_map_size: Option<u32>,
     /// As for shadow images.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(minimum = 1, maximum = 16)]
+    #[schema(minimum = 1, maximum = 8)]
     pub samples: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
@@ -292,7 +293,8 @@ pub struct ShadowResponse {
     pub width: u32,
     pub height: u32,
     /// Row by row from the top: 255 where the light reaches the surface a
-    /// pixel sees (or the pixel sees nothing), 0 where it is shadowed.
+    /// pixel sees (or the pixel sees nothing), 0 where it is shadowed,
+    /// and for an area light the fraction of it seen in between.
     pub visibility: Vec<u8>,
     pub stats: ShadowStatsOut,
 }
@@ -301,7 +303,8 @@ pub struct ShadowResponse {
 pub struct ShadowStatsOut {
     /// Pixels that see a surface.
     pub receivers: u64,
-    /// Pixels the light map could not prove, which were traced.
+    /// Receivers the proofs (light map, or an area light's hulls) left
+    /// open, which were traced.
     pub pip_pixels: u64,
     pub rays: u64,
     pub gbuffer_ms: f64,

@@ -134,7 +134,7 @@ impl Group {
 /// What a group's proofs reuse.
 #[derive(Default)]
 struct Scratch {
-    hulls: Vec<(usize, Hull)>,
+    hulls: Vec<(usize, Target, Hull)>,
     pool: Pool,
     candidates: Vec<Candidate>,
     samples: Vec<Vec3>,
@@ -197,7 +197,7 @@ impl ShadowScene {
                 Some(false) => out.push((i, Answer::Proven(0.0))),
                 None => out.push((i, Answer::Open)),
                 Some(true) => match Hull::new(t.point, frame, occluders.scale) {
-                    Some(h) => scratch.hulls.push((i, h)),
+                    Some(h) => scratch.hulls.push((i, t, h)),
                     None => out.push((i, Answer::Open)),
                 },
             }
@@ -205,9 +205,9 @@ impl ShadowScene {
         // A proof sorting through more triangles than this costs more
         // than tracing the samples.
         let budget = (2 * options.samples * options.samples) as usize;
-        let shared = Bounds::of(scratch.hulls.iter().map(|(_, h)| h))
+        let shared = Bounds::of(scratch.hulls.iter().map(|(_, _, h)| h))
             .is_some_and(|b| b.triangles(world, occluders, &mut scratch.pool, budget));
-        for (i, hull) in &scratch.hulls {
+        for (i, t, hull) in &scratch.hulls {
             let found = shared
                 || Bounds::of(std::iter::once(hull))
                     .is_some_and(|b| b.triangles(world, occluders, &mut scratch.pool, budget));
@@ -220,11 +220,10 @@ impl ShadowScene {
                     Cover::Lit => Answer::Proven(1.0),
                     Cover::Umbra => Answer::Proven(0.0),
                     Cover::Unknown => {
-                        let t = target(*i).expect("a hull has a target");
                         let among = &scratch.candidates;
                         Answer::Traced(seen_share(
                             light,
-                            &t,
+                            t,
                             *i,
                             options,
                             &mut scratch.samples,

@@ -8,7 +8,7 @@ use axum::response::{IntoResponse, Response};
 use axum::Json;
 use frusta_api::schemas::Binary;
 use frusta_api::shadows::{png, ShadowRequest, ShadowResponse};
-use frusta_engine::shadows::ShadowScene;
+use frusta_engine::shadows::{Light, ShadowScene};
 
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
@@ -20,9 +20,13 @@ pub const MAX_PIXELS: u64 = 1024 * 1024;
 /// texels at 32 bytes hold 50 MiB, and two requests run at once.
 pub const MAX_SHADOW_MAP_SIZE: u32 = 512;
 
-/// Most light samples per pixel a request may ask for (8 x 8): a
-/// 1024^2 image of full ray tracing then traces 67 M rays.
+/// Most light samples per side a request may ask for (8 x 8 per pixel or
+/// point).
 pub const MAX_SAMPLES: u32 = 8;
+/// Most shadow rays full ray tracing of one area-light image may need
+/// (receivers x samples^2): 1024^2 pixels at 16 samples, 512^2 at 64,
+/// about a second of tracing on two cores.
+pub const MAX_SAMPLE_RAYS: u64 = 1 << 24;
 
 /// Body: `{"camera": {"position", "look_at", "width", "height", ...},
 /// "light": {"position"[, "shape", ...]}, "method", "samples"}`. Send
@@ -59,7 +63,7 @@ pub async fn render(
             options.shadow_map_size
         )));
     }
-    check_samples(options.samples)?;
+    check_samples(&light, pixels, options.samples)?;
     camera.check().map_err(ApiError::from_engine)?;
     light.check().map_err(ApiError::from_engine)?;
     options.check().map_err(ApiError::from_engine)?;
@@ -84,11 +88,19 @@ pub async fn render(
     Ok(Json(ShadowResponse::new(revision, &image)).into_response())
 }
 
-/// 413 past [`MAX_SAMPLES`] per side (the engine refuses 0).
-pub fn check_samples(samples: u32) -> Result<(), ApiError> {
+/// A limit error past [`MAX_SAMPLES`] per side, or when `receivers` of an
+/// area light would need more than [`MAX_SAMPLE_RAYS`] rays (the engine
+/// refuses 0 samples).
+pub fn check_samples(light: &Light, receivers: u64, samples: u32) -> Result<(), ApiError> {
     if samples > MAX_SAMPLES {
         return Err(ApiError::LimitExceeded(format!(
             "samples {samples} exceeds {MAX_SAMPLES} per side"
+        )));
+    }
+    let rays = receivers * samples as u64 * samples as u64;
+    if matches!(light, Light::Area(_)) && rays > MAX_SAMPLE_RAYS {
+        return Err(ApiError::LimitExceeded(format!(
+            "{receivers} receivers at {samples} x {samples} samples need {rays} rays; at most {MAX_SAMPLE_RAYS}"
         )));
     }
     Ok(())
@@ -208,6 +220,11 @@ mod tests {
         many_samples["samples"] = json!(super::MAX_SAMPLES + 1);
         let mut no_samples = body(8);
         no_samples["samples"] = json!(0);
+        // 1024^2 pixels at 8 x 8 samples: 67 M rays.
+        let mut too_many_rays = body(1024);
+        too_many_rays["camera"]["height"] = json!(1024);
+        too_many_rays["light"] = json!({"position": [5, 3, 2.8], "shape": "sphere", "radius": 0.2});
+        too_many_rays["samples"] = json!(8);
         for (doc, status) in [
             (same, StatusCode::UNPROCESSABLE_ENTITY),
             (dark, StatusCode::UNPROCESSABLE_ENTITY),
@@ -220,6 +237,7 @@ mod tests {
             (edgeways_disk, StatusCode::UNPROCESSABLE_ENTITY),
             (many_samples, StatusCode::UNPROCESSABLE_ENTITY),
             (no_samples, StatusCode::UNPROCESSABLE_ENTITY),
+            (too_many_rays, StatusCode::UNPROCESSABLE_ENTITY),
         ] {
             let (got, _, problem) = server
                 .send(post_json("/v1/scenes/shoebox/shadows", &doc.to_string()))

@@ -38,7 +38,7 @@ pub async fn check(
         });
     }
     let (light, points, options) = request.engine().map_err(ApiError::Invalid)?;
-    check_samples(options.samples)?;
+    check_samples(&light, points.len() as u64, options.samples)?;
     if options.shadow_map_size > MAX_SHADOW_MAP_SIZE {
         return Err(ApiError::LimitExceeded(format!(
             "shadow_map_size {} exceeds {MAX_SHADOW_MAP_SIZE}",
