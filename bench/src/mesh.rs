@@ -61,6 +61,36 @@ pub fn resolve(arg: &str) -> PathBuf {
     dir.join(format!("{arg}.obj"))
 }
 
+/// The hall of `scenes/hall-<size>.json` where that file is bundled (10k,
+/// 200k); otherwise the same hall generated at `size` triangles (`20m`,
+/// `5m`, `750k`): the massive scenes, made in code, never stored.
+pub fn hall(size: &str) -> Result<BenchMesh, String> {
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let bundled = scenes.join(format!("hall-{size}.json"));
+    if bundled.exists() {
+        return load(&bundled);
+    }
+    let (digits, scale) = match size.to_ascii_lowercase() {
+        s if s.ends_with('k') => (s[..s.len() - 1].to_string(), 1e3),
+        s if s.ends_with('m') => (s[..s.len() - 1].to_string(), 1e6),
+        s => (s, 1.0),
+    };
+    let triangles = digits
+        .parse::<f64>()
+        .map(|n| (n * scale) as u64)
+        .map_err(|_| format!("--hall {size}: give a size such as 10k, 200k or 20m"))?;
+    let base = std::fs::read_to_string(scenes.join("hall-200k.json")).map_err(|e| e.to_string())?;
+    let text = base
+        .replace("\"hall-200k\"", &format!("\"hall-{size}\""))
+        .replace("\"target_triangles\": 200000", &format!("\"target_triangles\": {triangles}"));
+    let scene = Scene::from_json_str(&text, None).map_err(|e| format!("hall-{size}: {e}"))?;
+    let mesh = scene.world_mesh().map_err(|e| format!("hall-{size}: {e}"))?;
+    Ok(BenchMesh {
+        name: format!("hall-{size}"),
+        mesh,
+    })
+}
+
 /// Loads an OBJ, glTF or JSON scene file and flattens it into one
 /// world-space mesh.
 pub fn load(path: &Path) -> Result<BenchMesh, String> {

@@ -3,29 +3,11 @@
 
 mod common;
 
-use std::path::PathBuf;
-
-use common::{all_methods, Rng};
+use common::{all_methods, meshes_dir, Rng};
 use frusta_engine::bvh::MeshBvh;
 use frusta_engine::geometry::{Ray, TriangleMesh, WatertightRay};
 use frusta_engine::scene::Scene;
 use glam::Vec3;
-
-fn meshes_dir() -> Option<PathBuf> {
-    let shared = std::env::var_os("FRUSTA_SHARED_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared"));
-    let dir = shared.join("data/meshes");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "skipped: {} not found (set FRUSTA_SHARED_DIR)",
-            dir.display()
-        );
-        None
-    }
-}
 
 fn load(name: &str) -> Option<TriangleMesh> {
     let path = meshes_dir()?.join(name);

@@ -1,7 +1,7 @@
 //! `frusta-bench bvh`: arguments, the run over every mesh, and the saved
 //! `bvh.json` / `bvh.txt`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use serde::Serialize;
 
@@ -14,8 +14,11 @@ use crate::rays;
 use crate::report::{self, MeshReport};
 
 /// Sampled rays per set for the refit check (brute force over every
-/// triangle: a few seconds on the 200k hall).
+/// triangle: a few seconds on the 200k hall)...
 const CHECK_RAYS: usize = 1024;
+/// ...and at most this many ray-triangle tests per set, so a massive hall
+/// checks fewer rays (64 at least).
+const CHECK_TESTS: usize = 1 << 29;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -23,8 +26,9 @@ pub struct Args {
     /// a path, or a name in `<shared>/data/meshes/` (repeatable).
     #[arg(long)]
     mesh: Vec<String>,
-    /// A bundled hall scene, `scenes/hall-<SIZE>.json` (repeatable).
-    #[arg(long, value_parser = ["10k", "200k"])]
+    /// A hall: `scenes/hall-<SIZE>.json` where bundled (10k, 200k), else
+    /// that hall generated at SIZE triangles (e.g. 20m) (repeatable).
+    #[arg(long)]
     hall: Vec<String>,
     /// Print the JSON document instead of the tables.
     #[arg(long)]
@@ -63,21 +67,11 @@ struct Document<'a> {
 
 /// The meshes to run on: `--mesh` files, then `--hall` scenes.
 fn meshes(args: &Args) -> Result<Vec<BenchMesh>, String> {
-    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
-    let halls = args
-        .hall
-        .iter()
-        .map(|size| scenes.join(format!("hall-{size}.json")));
-    let paths: Vec<PathBuf> = args
-        .mesh
-        .iter()
-        .map(|m| mesh::resolve(m))
-        .chain(halls)
-        .collect();
-    if paths.is_empty() {
+    if args.mesh.is_empty() && args.hall.is_empty() {
         return Err("give --mesh PATH or --hall SIZE".into());
     }
-    paths.iter().map(|p| mesh::load(p)).collect()
+    let files = args.mesh.iter().map(|m| mesh::load(&mesh::resolve(m)));
+    files.chain(args.hall.iter().map(|size| mesh::hall(size))).collect()
 }
 
 fn one_mesh(m: &BenchMesh, args: &Args, selected: &[super::Impl], threads: usize) -> MeshReport {
@@ -86,8 +80,9 @@ fn one_mesh(m: &BenchMesh, args: &Args, selected: &[super::Impl], threads: usize
     let coherent = rays::coherent(&bounds, w, h);
     let incoherent = rays::incoherent(&bounds, coherent.len(), 0x5EED_F00D);
     let deformed = m.deformed_positions();
-    let mut sample = check::sample(&coherent, CHECK_RAYS);
-    sample.extend(check::sample(&incoherent, CHECK_RAYS));
+    let checked = (CHECK_TESTS / m.mesh.triangle_count().max(1)).clamp(64, CHECK_RAYS);
+    let mut sample = check::sample(&coherent, checked);
+    sample.extend(check::sample(&incoherent, checked));
     eprintln!("[{}] brute-force reference for the refit check...", m.name);
     let reference = Reference::new(&deformed, m.triangles(), sample);
     let input = Input {

@@ -21,6 +21,7 @@
 pub mod bvh_crate;
 pub mod check;
 pub mod cli;
+pub mod compact;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod frusta;
@@ -89,6 +90,7 @@ fn entry<A: Accel>() -> Impl {
 pub fn impls() -> Vec<Impl> {
     vec![
         entry::<frusta::Frusta>(),
+        entry::<compact::FrustaCompact>(),
         entry::<bvh_crate::BvhCrate>(),
         entry::<obvhs::Obvhs>(),
         entry::<parry::Parry>(),

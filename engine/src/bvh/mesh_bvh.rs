@@ -7,10 +7,10 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::traverse::{Flow, RayTest};
+use super::ray_queries::{self, LeafTriangles};
 use super::wide::Bvh4;
 use super::{BuildOptions, Bvh};
-use crate::geometry::{trace_batch, Aabb, Ray, TriangleHit, TriangleMesh, WatertightRay};
+use crate::geometry::{trace_batch, Aabb, Ray, TriangleHit, TriangleMesh};
 use crate::{Error, Result};
 
 /// A ray's nearest hit on a mesh.
@@ -68,25 +68,12 @@ pub struct MeshBvh {
 impl MeshBvh {
     /// Builds the hierarchy of `mesh`.
     pub fn build(mesh: &TriangleMesh, options: &BuildOptions) -> Self {
-        let n = mesh.triangle_count();
-        let boxes: Vec<Aabb> = (0..n)
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|t| {
-                let [a, b, c] = mesh.corners(t);
-                Aabb::of_triangle(a, b, c)
-            })
-            .collect();
-        let Bvh { nodes, prim_ids } = Bvh::build(&boxes, options);
+        let (mut bvh, prim_ids) = wide_tree(mesh, options);
         let triangles: Vec<[Vec3A; 3]> = prim_ids
             .par_iter()
             .with_min_len(4096)
             .map(|&t| mesh.corners(t as usize))
             .collect();
-        let mut bvh = Bvh4::from_binary(&Bvh {
-            nodes,
-            prim_ids: Vec::new(),
-        });
         bvh.record_build_ratios(|f, c| leaf_area_sum(&triangles, f, c));
         Self {
             bvh,
@@ -197,73 +184,29 @@ impl MeshBvh {
         }
     }
 
-    /// Traces `ray` and calls `on_hit(slot, hit, t_max)` for every triangle
-    /// it meets within the current range; `on_hit` may shrink `t_max` and
-    /// breaks to stop. Invalid rays (non-finite or zero direction) meet
-    /// nothing.
-    #[inline(always)]
-    fn walk(&self, ray: &Ray, mut on_hit: impl FnMut(u32, TriangleHit, &mut f32) -> Flow) {
-        if !ray.is_valid() {
-            return;
-        }
-        let tri_ray = WatertightRay::new(ray);
-        let t_min = ray.t_min;
-        self.bvh
-            .walk(&RayTest::new(ray), ray.t_max, |first, count, t_max| {
-                let leaf = &self.triangles[first as usize..(first + count) as usize];
-                for (i, [a, b, c]) in leaf.iter().enumerate() {
-                    if let Some(h) = tri_ray.intersect(*a, *b, *c, t_min, *t_max) {
-                        on_hit(first + i as u32, h, t_max)?;
-                    }
-                }
-                Flow::Continue(())
-            });
-    }
-
     /// The nearest hit within the ray's range.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray) -> Option<MeshHit> {
-        let mut best = None;
-        self.walk(ray, |slot, h, t_max| {
-            *t_max = h.t;
-            best = Some((slot, h));
-            Flow::Continue(())
-        });
-        best.map(|(slot, h)| self.mesh_hit(slot, h))
+        ray_queries::closest_hit(self, ray)
     }
 
     /// The hit `h` on the triangle in leaf slot `slot`.
     #[inline]
     pub(crate) fn mesh_hit(&self, slot: u32, h: TriangleHit) -> MeshHit {
-        let [a, b, c] = self.triangles[slot as usize];
-        MeshHit {
-            t: h.t,
-            triangle: self.prim_ids[slot as usize],
-            u: h.u,
-            v: h.v,
-            normal: Vec3::from((b - a).cross(c - a).normalize_or_zero()),
-        }
+        ray_queries::mesh_hit(self, slot, h)
     }
 
     /// Whether anything lies on the ray within its range (occlusion).
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> bool {
-        let mut hit = false;
-        self.walk(ray, |_, _, _| {
-            hit = true;
-            Flow::Break(())
-        });
-        hit
+        ray_queries::any_hit(self, ray)
     }
 
     /// Calls `visit(triangle, t)` for every triangle the ray crosses within
     /// its range, in no particular order. A ray through a shared edge or
     /// vertex of a closed mesh reports exactly one of the triangles there.
-    pub fn for_each_hit(&self, ray: &Ray, mut visit: impl FnMut(u32, f32)) {
-        self.walk(ray, |slot, h, _| {
-            visit(self.prim_ids[slot as usize], h.t);
-            Flow::Continue(())
-        });
+    pub fn for_each_hit(&self, ray: &Ray, visit: impl FnMut(u32, f32)) {
+        ray_queries::for_each_hit(self, ray, visit)
     }
 
     /// [`closest_hit`](Self::closest_hit) for many rays, in parallel.
@@ -277,9 +220,54 @@ impl MeshBvh {
     }
 }
 
+impl LeafTriangles for MeshBvh {
+    type Tree = Bvh4;
+
+    #[inline(always)]
+    fn tree(&self) -> &Bvh4 {
+        &self.bvh
+    }
+
+    #[inline(always)]
+    fn corners(&self, slot: u32) -> [Vec3A; 3] {
+        self.triangles[slot as usize]
+    }
+
+    #[inline(always)]
+    fn prim_id(&self, slot: u32) -> u32 {
+        self.prim_ids[slot as usize]
+    }
+}
+
+/// The wide tree of `mesh` (without build ratios) and its leaf order: leaf
+/// slot `i` holds triangle `prim_ids[i]`.
+pub(crate) fn wide_tree(mesh: &TriangleMesh, options: &BuildOptions) -> (Bvh4, Vec<u32>) {
+    let boxes: Vec<Aabb> = (0..mesh.triangle_count())
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t);
+            Aabb::of_triangle(a, b, c)
+        })
+        .collect();
+    let Bvh { nodes, prim_ids } = Bvh::build(&boxes, options);
+    let wide = Bvh4::from_binary(&Bvh {
+        nodes,
+        prim_ids: Vec::new(),
+    });
+    (wide, prim_ids)
+}
+
 fn leaf_area_sum(triangles: &[[Vec3A; 3]], first: u32, count: u32) -> f32 {
-    triangles[first as usize..(first + count) as usize]
-        .iter()
-        .map(|[a, b, c]| Aabb::of_triangle(*a, *b, *c).half_area())
+    leaf_area_sum_of(|s| triangles[s as usize], first, count)
+}
+
+/// The sum of the box areas of slots `first..first + count`.
+pub(crate) fn leaf_area_sum_of(corners: impl Fn(u32) -> [Vec3A; 3], first: u32, count: u32) -> f32 {
+    (first..first + count)
+        .map(|s| {
+            let [a, b, c] = corners(s);
+            Aabb::of_triangle(a, b, c).half_area()
+        })
         .sum()
 }

@@ -3,6 +3,8 @@
 //!
 //! - [`node`]: the 32-byte node layout;
 //! - [`build`]: binned SAH, Morton (LBVH) and hybrid builders;
+//! - [`compact`]: the same trees in a quarter of the bytes (quantised
+//!   boxes, shared vertices);
 //! - [`refit`]: bottom-up box updates after geometry moves, with the rebuild
 //!   heuristic of Lauterbach's dissertation (section 4.1.5);
 //! - [`traverse`]: the traversal core: one ordered walk per tree width
@@ -14,15 +16,18 @@
 //!   over per-object trees, and the walk over its top level.
 
 pub mod build;
+pub mod compact;
 mod mesh_bvh;
 pub mod node;
 pub mod obb;
+mod ray_queries;
 pub mod refit;
 pub mod traverse;
 pub mod wide;
 pub mod world;
 
 pub use build::{BuildMethod, BuildOptions};
+pub use compact::CompactBvh;
 pub use mesh_bvh::{MeshBvh, MeshHit, RefitReport, UpdateAction, UpdateReport};
 pub use node::Node;
 pub use refit::DEFAULT_REBUILD_THRESHOLD;

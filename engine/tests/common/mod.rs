@@ -8,6 +8,26 @@ use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::SceneObject;
 use glam::{Quat, Vec3};
 
+/// `../shared/data/meshes` (or `$FRUSTA_SHARED_DIR/data/meshes`); `None`,
+/// with a message, where it is absent.
+pub fn meshes_dir() -> Option<std::path::PathBuf> {
+    let shared = std::env::var_os("FRUSTA_SHARED_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| {
+            std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared")
+        });
+    let dir = shared.join("data/meshes");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "skipped: {} not found (set FRUSTA_SHARED_DIR)",
+            dir.display()
+        );
+        None
+    }
+}
+
 /// A small deterministic generator (SplitMix64), so tests need no crate.
 pub struct Rng(pub u64);
 

@@ -9,7 +9,7 @@
 use glam::{BVec4A, Vec3A, Vec4};
 
 use super::NodeTest;
-use crate::bvh::wide::Node4;
+use crate::bvh::wide::Boxes4;
 use crate::geometry::{Aabb, RigidTransform};
 
 /// At most this many bounding planes (four sides and a near plane).
@@ -85,7 +85,7 @@ impl FrustumTest {
 /// `n · p` over the four slots, `p` the corner that `pick_hi` (per axis)
 /// takes from the maxima, else from the minima.
 #[inline(always)]
-fn dot4(node: &Node4, n: Vec3A, pick_hi: impl Fn(f32) -> bool) -> Vec4 {
+fn dot4(node: &Boxes4, n: Vec3A, pick_hi: impl Fn(f32) -> bool) -> Vec4 {
     let mut dot = Vec4::ZERO;
     for axis in 0..3 {
         let corner = if pick_hi(n[axis]) {
@@ -106,7 +106,7 @@ impl NodeTest for FrustumTest {
     }
 
     #[inline]
-    fn test4(&self, node: &Node4, bound: f32) -> (Vec4, u32) {
+    fn test4(&self, node: &Boxes4, bound: f32) -> (Vec4, u32) {
         let mut keep = BVec4A::splat(true);
         for i in 0..self.planes {
             let far = dot4(node, self.normals[i], |c| c > 0.0);
@@ -161,7 +161,7 @@ mod tests {
             node.set_slot_aabb(s, *b);
         }
         for bound in [2.5, 5.0, f32::INFINITY] {
-            let (keys, mask) = q.test4(&node, bound);
+            let (keys, mask) = q.test4(&node.boxes, bound);
             for s in 0..4 {
                 let one = q.test(&node.slot_aabb(s), bound);
                 assert_eq!(one, (mask >> s & 1 == 1).then_some(keys[s]), "{s} {bound}");

@@ -34,9 +34,10 @@ use glam::Vec4;
 pub use frustum::FrustumTest;
 pub use overlap::OverlapTest;
 pub use ray::RayTest;
+pub use wide::{walk, Slot, WideTree};
 pub use window::{Projection, WindowRect, WindowTest, WindowVisitor};
 
-use super::wide::Node4;
+use super::wide::Boxes4;
 use crate::geometry::Aabb;
 
 /// Enough for the deepest tree the builders make (see `FORCE_MEDIAN_DEPTH`).
@@ -62,13 +63,13 @@ pub trait NodeTest {
     /// key up to `bound`.
     fn test(&self, b: &Aabb, bound: f32) -> Option<f32>;
 
-    /// [`test`](Self::test) for the four slots of a wide node: their keys,
-    /// and a bit mask of the slots kept.
-    fn test4(&self, node: &Node4, bound: f32) -> (Vec4, u32) {
+    /// [`test`](Self::test) for the four slot boxes of a wide node: their
+    /// keys, and a bit mask of the slots kept.
+    fn test4(&self, boxes: &Boxes4, bound: f32) -> (Vec4, u32) {
         let mut keys = Vec4::ZERO;
         let mut mask = 0;
         for slot in 0..4 {
-            if let Some(k) = self.test(&node.slot_aabb(slot), bound) {
+            if let Some(k) = self.test(&boxes.slot_aabb(slot), bound) {
                 keys[slot] = k;
                 mask |= 1 << slot;
             }

@@ -5,7 +5,7 @@
 use glam::{BVec4A, Vec4};
 
 use super::NodeTest;
-use crate::bvh::wide::Node4;
+use crate::bvh::wide::Boxes4;
 use crate::geometry::Aabb;
 
 /// Keeps the boxes that overlap or touch `query`; every key is 0, so the
@@ -37,7 +37,7 @@ impl NodeTest for OverlapTest {
     }
 
     #[inline]
-    fn test4(&self, n: &Node4, _bound: f32) -> (Vec4, u32) {
+    fn test4(&self, n: &Boxes4, _bound: f32) -> (Vec4, u32) {
         let mut keep = BVec4A::splat(true);
         for axis in 0..3 {
             keep &= n.lo[axis].cmple(self.hi[axis]) & n.hi[axis].cmpge(self.lo[axis]);
@@ -64,7 +64,7 @@ mod tests {
         for (s, b) in boxes.iter().enumerate() {
             node.set_slot_aabb(s, *b);
         }
-        assert_eq!(test.test4(&node, 0.0).1, 0b101);
+        assert_eq!(test.test4(&node.boxes, 0.0).1, 0b101);
         for s in 0..4 {
             let kept = test.test(&node.slot_aabb(s), 0.0).is_some();
             assert_eq!(kept, s == 0 || s == 2);

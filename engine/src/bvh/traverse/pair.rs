@@ -162,7 +162,7 @@ impl PairVolumes for BoxVolumes<'_> {
     #[inline]
     fn node_overlaps(&self, a: &Aabb, node: &Node4) -> Option<u32> {
         (self.b_to_a.is_none() && self.margin == 0.0)
-            .then(|| OverlapTest::new(*a).test4(node, 0.0).1)
+            .then(|| OverlapTest::new(*a).test4(&node.boxes, 0.0).1)
     }
 }
 

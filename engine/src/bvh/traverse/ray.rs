@@ -10,7 +10,7 @@
 use glam::{BVec4A, Vec4};
 
 use super::NodeTest;
-use crate::bvh::wide::Node4;
+use crate::bvh::wide::Boxes4;
 use crate::geometry::{Aabb, Ray};
 
 /// `1 + 2 * gamma(3)` with `gamma(n) = n * u / (1 - n * u)`, `u = 2^-24`.
@@ -98,7 +98,7 @@ impl NodeTest for RayTest {
     }
 
     #[inline(always)]
-    fn test4(&self, n: &Node4, bound: f32) -> (Vec4, u32) {
+    fn test4(&self, n: &Boxes4, bound: f32) -> (Vec4, u32) {
         let mut enter = Vec4::splat(self.t_min);
         let mut exit = Vec4::splat(bound);
         for axis in 0..3 {
@@ -132,7 +132,7 @@ mod tests {
         let one = test.test(&unit_box(), t_max);
         let mut node = crate::bvh::wide::EMPTY_NODE;
         node.set_slot_aabb(2, unit_box());
-        let (keys, mask) = test.test4(&node, t_max);
+        let (keys, mask) = test.test4(&node.boxes, t_max);
         assert_eq!(mask & !4, 0, "empty slots are never hit");
         assert_eq!(one, (mask == 4).then_some(keys[2]), "{ray:?}");
         one

@@ -1,15 +1,19 @@
-//! The ordered walk over the 4-wide tree that meshes are traced with.
+//! The ordered walk over a 4-wide tree: the plain one meshes are traced
+//! with ([`Bvh4`]) and the compact one
+//! ([`CompactBvh4`](crate::bvh::compact::CompactBvh4)), through
+//! [`WideTree`], so both share one walk and every node test.
 
 use std::mem::MaybeUninit;
 
 use super::{Flow, NodeTest, STACK_SIZE};
-use crate::bvh::wide::{Bvh4, Node4};
+use crate::bvh::wide::{Boxes4, Bvh4, Node4};
 
 /// Stack entries name an inner node by its index and a leaf by this bit
 /// with its node's index and slot, so leaves are visited in key order with
 /// the rest.
 pub(super) const LEAF_REF: u32 = 1 << 31;
 
+/// The stack entry of `slot` of `node` (not empty) in a plain tree.
 #[inline(always)]
 pub(super) fn child_ref(n: &Node4, node: usize, slot: usize) -> u32 {
     if n.count[slot] != 0 {
@@ -19,79 +23,145 @@ pub(super) fn child_ref(n: &Node4, node: usize, slot: usize) -> u32 {
     }
 }
 
+/// What a slot of a wide node holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slot {
+    Empty,
+    Inner(u32),
+    Leaf,
+}
+
+/// A 4-wide tree as the walk sees it: slot boxes, and what each slot holds.
+pub trait WideTree {
+    /// What the leaf callback gets for a leaf slot.
+    type Leaf: Copy;
+
+    fn node_count(&self) -> usize;
+    /// The slot boxes of node `node`: stored, or decoded conservatively.
+    fn boxes(&self, node: usize) -> Boxes4;
+    fn slot(&self, node: usize, slot: usize) -> Slot;
+    /// The leaf in `slot` of `node`, a slot [`slot`](Self::slot) calls a leaf.
+    fn leaf(&self, node: usize, slot: usize) -> Self::Leaf;
+}
+
+impl WideTree for Bvh4 {
+    /// First leaf slot and count.
+    type Leaf = (u32, u32);
+
+    #[inline(always)]
+    fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    #[inline(always)]
+    fn boxes(&self, node: usize) -> Boxes4 {
+        self.nodes[node].boxes
+    }
+
+    #[inline(always)]
+    fn slot(&self, node: usize, slot: usize) -> Slot {
+        let n = &self.nodes[node];
+        if n.count[slot] != 0 {
+            Slot::Leaf
+        } else if n.child[slot] == u32::MAX {
+            Slot::Empty
+        } else {
+            Slot::Inner(n.child[slot])
+        }
+    }
+
+    #[inline(always)]
+    fn leaf(&self, node: usize, slot: usize) -> (u32, u32) {
+        let n = &self.nodes[node];
+        (n.child[slot], n.count[slot])
+    }
+}
+
+/// Visits the leaves of `tree` that `test` reaches, nearer keys first,
+/// skipping boxes whose key exceeds the bound by the time they are reached.
+/// `leaf(leaf, bound)` may lower `bound` and breaks to end the walk.
+#[inline(always)]
+pub fn walk<W: WideTree, T: NodeTest>(
+    tree: &W,
+    test: &T,
+    mut bound: f32,
+    mut leaf: impl FnMut(W::Leaf, &mut f32) -> Flow,
+) {
+    if tree.node_count() == 0 {
+        return;
+    }
+    // Each level pushes at most three more entries than it pops.
+    // Uninitialised: zeroing it would cost more than a shallow walk.
+    let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); 3 * STACK_SIZE];
+    let mut top = 0usize;
+    let mut node = 0usize;
+    loop {
+        let (keys, mut mask) = test.test4(&tree.boxes(node), bound);
+        // Children kept, sorted farthest first and pushed, so that the
+        // nearest, leaf or not, is handled next.
+        let mut kept = [(0u32, 0.0f32); 4];
+        let mut k = 0;
+        while mask != 0 {
+            let s = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            // Empty slots whatever the test says: a test with NaN in its
+            // planes (a frustum from a source at 3e38 m) kept their empty
+            // boxes, and the slot's marker read as a leaf out of bounds.
+            let entry = match tree.slot(node, s) {
+                Slot::Empty => continue,
+                Slot::Inner(child) => child,
+                Slot::Leaf => LEAF_REF | (node as u32) << 2 | s as u32,
+            };
+            kept[k] = (entry, keys[s]);
+            k += 1;
+        }
+        if T::ORDERED {
+            for i in 1..k {
+                let mut j = i;
+                while j > 0 && kept[j - 1].1 < kept[j].1 {
+                    kept.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
+        }
+        for &entry in &kept[..k] {
+            stack[top] = MaybeUninit::new(entry);
+            top += 1;
+        }
+        loop {
+            if top == 0 {
+                return;
+            }
+            top -= 1;
+            // SAFETY: entries below the old `top` were written above.
+            let (index, key) = unsafe { stack[top].assume_init() };
+            if key > bound {
+                continue;
+            }
+            if index & LEAF_REF == 0 {
+                node = index as usize;
+                break;
+            }
+            let (n, s) = ((index & !LEAF_REF) >> 2, index & 3);
+            if leaf(tree.leaf(n as usize, s as usize), &mut bound).is_break() {
+                return;
+            }
+        }
+    }
+}
+
 impl Bvh4 {
-    /// Visits the leaves `test` reaches, nearer keys first, skipping boxes
-    /// whose key exceeds the bound by the time they are reached.
+    /// Visits the leaves `test` reaches, nearer keys first (see [`walk`]).
     /// `leaf(first, count, bound)` gets leaf slots `first..first + count`,
     /// may lower `bound` and breaks to end the walk.
     #[inline(always)]
     pub fn walk<T: NodeTest>(
         &self,
         test: &T,
-        mut bound: f32,
+        bound: f32,
         mut leaf: impl FnMut(u32, u32, &mut f32) -> Flow,
     ) {
-        if self.nodes.is_empty() {
-            return;
-        }
-        // Each level pushes at most three more entries than it pops.
-        // Uninitialised: zeroing it would cost more than a shallow walk.
-        let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); 3 * STACK_SIZE];
-        let mut top = 0usize;
-        let mut node = 0usize;
-        loop {
-            let (keys, mut mask) = test.test4(&self.nodes[node], bound);
-            // Children kept, sorted farthest first and pushed, so that the
-            // nearest, leaf or not, is handled next.
-            let mut kept = [(0u32, 0.0f32); 4];
-            let mut k = 0;
-            while mask != 0 {
-                let s = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                // Empty slots whatever the test says: a test with NaN in its
-                // planes (a frustum from a source at 3e38 m) kept their
-                // empty boxes, and the slot's marker read as a leaf out of
-                // bounds.
-                if self.nodes[node].child[s] == u32::MAX {
-                    continue;
-                }
-                kept[k] = (child_ref(&self.nodes[node], node, s), keys[s]);
-                k += 1;
-            }
-            if T::ORDERED {
-                for i in 1..k {
-                    let mut j = i;
-                    while j > 0 && kept[j - 1].1 < kept[j].1 {
-                        kept.swap(j - 1, j);
-                        j -= 1;
-                    }
-                }
-            }
-            for &entry in &kept[..k] {
-                stack[top] = MaybeUninit::new(entry);
-                top += 1;
-            }
-            loop {
-                if top == 0 {
-                    return;
-                }
-                top -= 1;
-                // SAFETY: entries below the old `top` were written above.
-                let (index, key) = unsafe { stack[top].assume_init() };
-                if key > bound {
-                    continue;
-                }
-                if index & LEAF_REF == 0 {
-                    node = index as usize;
-                    break;
-                }
-                let (n, s) = ((index & !LEAF_REF) >> 2, index & 3);
-                let n = &self.nodes[n as usize];
-                if leaf(n.child[s as usize], n.count[s as usize], &mut bound).is_break() {
-                    return;
-                }
-            }
-        }
+        walk(self, test, bound, |(first, count), b| leaf(first, count, b));
     }
 }
 

@@ -182,8 +182,8 @@ impl WindowTest {
         // is a sum of one term per axis, taken from the minimum or maximum.
         let mut terms = [[[Vec4::ZERO; 2]; 3]; 3];
         for axis in 0..3 {
-            let lo = n.lo[axis] - Vec4::splat(self.apex[axis]);
-            let hi = n.hi[axis] - Vec4::splat(self.apex[axis]);
+            let lo = n.boxes.lo[axis] - Vec4::splat(self.apex[axis]);
+            let hi = n.boxes.hi[axis] - Vec4::splat(self.apex[axis]);
             for (row, t) in self.rows.iter().zip(terms.iter_mut()) {
                 t[axis] = [lo * row[axis], hi * row[axis]];
             }
@@ -204,7 +204,7 @@ impl WindowTest {
             v = [v[0].min(cv), v[1].max(cv)];
         }
         std::array::from_fn(|slot| {
-            let (lo, hi) = (n.lo[0][slot], n.hi[0][slot]);
+            let (lo, hi) = (n.boxes.lo[0][slot], n.boxes.hi[0][slot]);
             if n.child[slot] == u32::MAX || lo.is_nan() || lo > hi {
                 return None;
             }

@@ -6,7 +6,7 @@
 //! incoherent rays take far fewer dependent loads. The binary tree stays the
 //! build intermediate and the top level of scenes, where nodes are few.
 
-mod refit;
+pub(crate) mod refit;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -25,8 +25,7 @@ use crate::geometry::Aabb;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub struct Node4 {
-    pub(crate) lo: [Vec4; 3],
-    pub(crate) hi: [Vec4; 3],
+    pub(crate) boxes: Boxes4,
     /// First leaf slot (leaf) or child node (inner); `u32::MAX` when empty.
     pub child: [u32; 4],
     /// Primitives in a leaf slot; 0 for inner and empty slots.
@@ -35,14 +34,21 @@ pub struct Node4 {
 
 const _: () = assert!(std::mem::size_of::<Node4>() == 128);
 
-pub(crate) const EMPTY_NODE: Node4 = Node4 {
-    lo: [Vec4::INFINITY; 3],
-    hi: [Vec4::NEG_INFINITY; 3],
-    child: [u32::MAX; 4],
-    count: [0; 4],
-};
+/// Four boxes in structure-of-arrays form: per axis, the four minima and
+/// the four maxima. What every node test of a 4-wide walk reads, whether
+/// the tree stores them so or decodes them (see [`super::compact`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Boxes4 {
+    pub(crate) lo: [Vec4; 3],
+    pub(crate) hi: [Vec4; 3],
+}
 
-impl Node4 {
+impl Boxes4 {
+    pub(crate) const EMPTY: Self = Self {
+        lo: [Vec4::INFINITY; 3],
+        hi: [Vec4::NEG_INFINITY; 3],
+    };
+
     pub fn slot_aabb(&self, slot: usize) -> Aabb {
         Aabb::new(
             glam::Vec3A::new(self.lo[0][slot], self.lo[1][slot], self.lo[2][slot]),
@@ -55,6 +61,22 @@ impl Node4 {
             self.lo[axis][slot] = b.min[axis];
             self.hi[axis][slot] = b.max[axis];
         }
+    }
+}
+
+pub(crate) const EMPTY_NODE: Node4 = Node4 {
+    boxes: Boxes4::EMPTY,
+    child: [u32::MAX; 4],
+    count: [0; 4],
+};
+
+impl Node4 {
+    pub fn slot_aabb(&self, slot: usize) -> Aabb {
+        self.boxes.slot_aabb(slot)
+    }
+
+    pub(crate) fn set_slot_aabb(&mut self, slot: usize, b: Aabb) {
+        self.boxes.set_slot_aabb(slot, b)
     }
 
     /// The union of the four slots: this node's own box.

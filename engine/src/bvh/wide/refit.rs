@@ -55,22 +55,12 @@ impl Bvh4 {
         }
     }
 
-    /// Area ratios of a node and of its leaf slots: the node's box over the
-    /// sum of its slots' boxes, and a leaf's box over the sum of its
-    /// primitives' boxes (`leaf_area_sum`). Inner and empty slots read 1.
+    /// Area ratios of a node and of its leaf slots (see [`node_ratios`]).
     fn ratios(n: &Node4, leaf_area_sum: &impl Fn(u32, u32) -> f32) -> [f32; 5] {
-        let mut r = [1.0; 5];
-        let parts: f32 = (0..4).map(|s| n.slot_aabb(s).half_area()).sum();
-        r[0] = ratio(n.aabb().half_area(), parts);
-        for s in 0..4 {
-            if n.is_leaf_slot(s) && n.count[s] > 1 {
-                r[s + 1] = ratio(
-                    n.slot_aabb(s).half_area(),
-                    leaf_area_sum(n.child[s], n.count[s]),
-                );
-            }
-        }
-        r
+        let slots = std::array::from_fn(|s| n.slot_aabb(s));
+        node_ratios(&slots, |s| {
+            (n.is_leaf_slot(s) && n.count[s] > 1).then(|| leaf_area_sum(n.child[s], n.count[s]))
+        })
     }
 
     /// Records the current ratios as the build-time reference.
@@ -82,26 +72,61 @@ impl Bvh4 {
             .collect();
     }
 
-    /// The rebuild heuristic (dissertation, section 4.1.5): the mean growth
-    /// of the area ratios since the build, over nodes and leaves with
-    /// several primitives. 0 under translation; large when neighbours part.
+    /// The rebuild heuristic on the current boxes (see [`degradation`]).
     pub(crate) fn degradation(&self, leaf_area_sum: impl Fn(u32, u32) -> f32) -> f32 {
-        let (mut sum, mut count) = (0.0f64, 0usize);
-        for (n, built) in self.nodes.iter().zip(&self.build_ratios) {
-            let now = Self::ratios(n, &leaf_area_sum);
-            sum += (now[0] - built[0]) as f64;
-            count += 1;
-            for s in 0..4 {
-                if n.is_leaf_slot(s) && n.count[s] > 1 {
-                    sum += (now[s + 1] - built[s + 1]) as f64;
-                    count += 1;
-                }
+        let now: Vec<[f32; 5]> = self
+            .nodes
+            .iter()
+            .map(|n| Self::ratios(n, &leaf_area_sum))
+            .collect();
+        degradation(&self.build_ratios, &now, |i, s| {
+            self.nodes[i].is_leaf_slot(s) && self.nodes[i].count[s] > 1
+        })
+    }
+}
+
+/// Area ratios of a node and of its leaf slots: the node's box over the sum
+/// of its slots' boxes, and a leaf's box over `leaf_parts(slot)`, the sum of
+/// its primitives' box areas (`None`: inner, empty or single, which read 1).
+pub(crate) fn node_ratios(
+    slots: &[Aabb; 4],
+    leaf_parts: impl Fn(usize) -> Option<f32>,
+) -> [f32; 5] {
+    let mut r = [1.0; 5];
+    let parts: f32 = slots.iter().map(Aabb::half_area).sum();
+    let own = slots.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
+    r[0] = ratio(own.half_area(), parts);
+    for s in 0..4 {
+        if let Some(parts) = leaf_parts(s) {
+            r[s + 1] = ratio(slots[s].half_area(), parts);
+        }
+    }
+    r
+}
+
+/// The rebuild heuristic (dissertation, section 4.1.5): the mean growth of
+/// the area ratios since the build, over nodes and over the leaf slots
+/// `counted(node, slot)` names (those with several primitives). 0 under
+/// translation; large when neighbours part.
+pub(crate) fn degradation(
+    built: &[[f32; 5]],
+    now: &[[f32; 5]],
+    counted: impl Fn(usize, usize) -> bool,
+) -> f32 {
+    let (mut sum, mut count) = (0.0f64, 0usize);
+    for (i, (now, built)) in now.iter().zip(built).enumerate() {
+        sum += (now[0] - built[0]) as f64;
+        count += 1;
+        for s in 0..4 {
+            if counted(i, s) {
+                sum += (now[s + 1] - built[s + 1]) as f64;
+                count += 1;
             }
         }
-        if count == 0 {
-            0.0
-        } else {
-            (sum / count as f64) as f32
-        }
+    }
+    if count == 0 {
+        0.0
+    } else {
+        (sum / count as f64) as f32
     }
 }
