@@ -82,9 +82,14 @@ pub fn hall(size: &str) -> Result<BenchMesh, String> {
     let base = std::fs::read_to_string(scenes.join("hall-200k.json")).map_err(|e| e.to_string())?;
     let text = base
         .replace("\"hall-200k\"", &format!("\"hall-{size}\""))
-        .replace("\"target_triangles\": 200000", &format!("\"target_triangles\": {triangles}"));
+        .replace(
+            "\"target_triangles\": 200000",
+            &format!("\"target_triangles\": {triangles}"),
+        );
     let scene = Scene::from_json_str(&text, None).map_err(|e| format!("hall-{size}: {e}"))?;
-    let mesh = scene.world_mesh().map_err(|e| format!("hall-{size}: {e}"))?;
+    let mesh = scene
+        .world_mesh()
+        .map_err(|e| format!("hall-{size}: {e}"))?;
     Ok(BenchMesh {
         name: format!("hall-{size}"),
         mesh,

@@ -71,7 +71,9 @@ fn meshes(args: &Args) -> Result<Vec<BenchMesh>, String> {
         return Err("give --mesh PATH or --hall SIZE".into());
     }
     let files = args.mesh.iter().map(|m| mesh::load(&mesh::resolve(m)));
-    files.chain(args.hall.iter().map(|size| mesh::hall(size))).collect()
+    files
+        .chain(args.hall.iter().map(|size| mesh::hall(size)))
+        .collect()
 }
 
 fn one_mesh(m: &BenchMesh, args: &Args, selected: &[super::Impl], threads: usize) -> MeshReport {

@@ -34,6 +34,7 @@ use glam::Vec4;
 pub use frustum::FrustumTest;
 pub use overlap::OverlapTest;
 pub use ray::RayTest;
+pub(crate) use wide::prefetch;
 pub use wide::{walk, Slot, WideTree};
 pub use window::{Projection, WindowRect, WindowTest, WindowVisitor};
 
