@@ -7,10 +7,9 @@
 
 mod common;
 
-use common::{all_methods, meshes_dir, Rng};
+use common::{all_methods, standard_meshes, Rng};
 use frusta_engine::bvh::{BuildOptions, CompactBvh, MeshBvh};
 use frusta_engine::geometry::{shapes, Ray, TriangleMesh, WatertightRay};
-use frusta_engine::scene::Scene;
 use glam::Vec3;
 
 /// Rays from everywhere, and rays aimed exactly at vertices and edge
@@ -188,15 +187,8 @@ fn refits_keep_the_layouts_alike() {
 #[test]
 fn welded_seams_that_part_are_laid_out_again() {
     let sphere = shapes::icosphere(1.0, 3);
-    let positions: Vec<Vec3> = sphere
-        .triangles()
-        .iter()
-        .flat_map(|t| t.map(|v| sphere.positions()[v as usize]))
-        .collect();
-    let triangles = (0..sphere.triangle_count() as u32)
-        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
-        .collect();
-    let split = TriangleMesh::new(positions.clone(), triangles).unwrap();
+    let split = shapes::unwelded(&sphere);
+    let positions = split.positions().to_vec();
     let mut plain = MeshBvh::build(&split, &BuildOptions::default());
     let mut compact = CompactBvh::build(&split, &BuildOptions::default());
     assert_eq!(compact.vertex_count(), sphere.positions().len());
@@ -220,16 +212,8 @@ fn welded_seams_that_part_are_laid_out_again() {
 
 #[test]
 fn every_standard_mesh_hits_alike() {
-    let Some(dir) = meshes_dir() else { return };
     let mut rng = Rng(17);
-    for name in [
-        "stanford-bunny.obj",
-        "nefertiti.obj",
-        "fandisk.obj",
-        "teapot.obj",
-        "spot.obj",
-    ] {
-        let mesh = Scene::load(&dir.join(name)).unwrap().world_mesh().unwrap();
+    for (name, mesh) in standard_meshes() {
         let plain = MeshBvh::build(&mesh, &BuildOptions::default());
         let compact = CompactBvh::build(&mesh, &BuildOptions::default());
         let rays = rays(&mesh, 3000, &mut rng);

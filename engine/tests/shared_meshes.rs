@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{all_methods, meshes_dir, Rng};
+use common::{all_methods, meshes_dir, standard_meshes, Rng};
 use frusta_engine::bvh::MeshBvh;
 use frusta_engine::geometry::{Ray, TriangleMesh, WatertightRay};
 use frusta_engine::scene::Scene;
@@ -87,15 +87,7 @@ fn bunny_closest_hits_match_brute_force() {
 /// Every standard mesh loads, builds with every method and refits.
 #[test]
 fn every_standard_mesh_builds_and_refits() {
-    let Some(dir) = meshes_dir() else { return };
-    for name in [
-        "stanford-bunny.obj",
-        "nefertiti.obj",
-        "fandisk.obj",
-        "teapot.obj",
-        "spot.obj",
-    ] {
-        let mesh = Scene::load(&dir.join(name)).unwrap().world_mesh().unwrap();
+    for (name, mesh) in standard_meshes() {
         for options in all_methods() {
             let mut bvh = MeshBvh::build(&mesh, &options);
             assert_eq!(bvh.triangle_count(), mesh.triangle_count());

@@ -21,7 +21,6 @@
 pub mod bvh_crate;
 pub mod check;
 pub mod cli;
-pub mod compact;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod frusta;
@@ -89,8 +88,8 @@ fn entry<A: Accel>() -> Impl {
 /// Every implementation compiled in, in report order (ours first).
 pub fn impls() -> Vec<Impl> {
     vec![
-        entry::<frusta::Frusta>(),
-        entry::<compact::FrustaCompact>(),
+        entry::<frusta::Frusta<false>>(),
+        entry::<frusta::Frusta<true>>(),
         entry::<bvh_crate::BvhCrate>(),
         entry::<obvhs::Obvhs>(),
         entry::<parry::Parry>(),

@@ -108,6 +108,17 @@ pub fn icosphere(radius: f32, levels: u32) -> TriangleMesh {
     builder.finish()
 }
 
+/// `mesh` with every triangle on corners of its own (three vertices each,
+/// repeating positions): how meshes split for flat normals arrive.
+pub fn unwelded(mesh: &TriangleMesh) -> TriangleMesh {
+    let positions = mesh
+        .triangles()
+        .iter()
+        .flat_map(|t| t.map(|v| mesh.positions()[v as usize]));
+    let triangles = (0..mesh.triangle_count() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]);
+    TriangleMesh::new(positions.collect(), triangles.collect()).expect("the same triangles")
+}
+
 /// A torus around the z axis with radii `major > minor`, `rings x sides`
 /// quads.
 pub fn torus(major: f32, minor: f32, rings: u32, sides: u32) -> TriangleMesh {

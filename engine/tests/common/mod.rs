@@ -28,6 +28,27 @@ pub fn meshes_dir() -> Option<std::path::PathBuf> {
     }
 }
 
+/// The standard meshes of [`meshes_dir`] by file name, flattened; empty
+/// (with a message) where the folder is absent.
+pub fn standard_meshes() -> Vec<(&'static str, TriangleMesh)> {
+    let Some(dir) = meshes_dir() else {
+        return Vec::new();
+    };
+    [
+        "stanford-bunny.obj",
+        "nefertiti.obj",
+        "fandisk.obj",
+        "teapot.obj",
+        "spot.obj",
+    ]
+    .into_iter()
+    .map(|name| {
+        let scene = frusta_engine::scene::Scene::load(&dir.join(name)).unwrap();
+        (name, scene.world_mesh().unwrap())
+    })
+    .collect()
+}
+
 /// A small deterministic generator (SplitMix64), so tests need no crate.
 pub struct Rng(pub u64);
 

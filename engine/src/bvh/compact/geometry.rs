@@ -191,15 +191,7 @@ mod tests {
         // Every triangle with its own three vertices, as a mesh split along
         // every edge for flat normals.
         let sphere = shapes::icosphere(1.0, 6);
-        let positions: Vec<Vec3> = sphere
-            .triangles()
-            .iter()
-            .flat_map(|t| t.map(|v| sphere.positions()[v as usize]))
-            .collect();
-        let triangles = (0..sphere.triangle_count() as u32)
-            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
-            .collect();
-        let split = TriangleMesh::new(positions, triangles).unwrap();
+        let split = shapes::unwelded(&sphere);
         // A scrambled order: neighbours far apart, so corners reach back.
         let n = split.triangle_count() as u32;
         let order: Vec<u32> = (0..n).map(|i| (i * 7919) % n).collect();

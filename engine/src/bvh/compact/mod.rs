@@ -33,7 +33,7 @@ use glam::Vec3A;
 use super::mesh_bvh::{leaf_area_sum_of, wide_tree};
 use super::ray_queries::{self, LeafTriangles};
 use super::{BuildOptions, MeshHit, RefitReport};
-use crate::geometry::{trace_batch, Aabb, Ray, TriangleMesh};
+use crate::geometry::{Aabb, Ray, TriangleMesh};
 use crate::{Error, Result};
 pub use geometry::SharedCorners;
 pub use node::CompactNode4;
@@ -174,16 +174,6 @@ impl CompactBvh {
     /// its range, in no particular order.
     pub fn for_each_hit(&self, ray: &Ray, visit: impl FnMut(u32, f32)) {
         ray_queries::for_each_hit(self, ray, visit)
-    }
-
-    /// [`closest_hit`](Self::closest_hit) for many rays, in parallel.
-    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<MeshHit>> {
-        trace_batch(rays, |r| self.closest_hit(r))
-    }
-
-    /// [`any_hit`](Self::any_hit) for many rays, in parallel.
-    pub fn any_hits(&self, rays: &[Ray]) -> Vec<bool> {
-        trace_batch(rays, |r| self.any_hit(r))
     }
 }
 
