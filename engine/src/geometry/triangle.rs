@@ -97,7 +97,7 @@ impl WatertightRay {
     /// Intersects the triangle `(a, b, c)`; a hit is reported when its `t`
     /// lies in `[t_min, t_max]`. Both sides of the triangle are hit;
     /// zero-area triangles never are.
-    #[inline]
+    #[inline(always)]
     pub fn intersect(
         &self,
         a: Vec3A,
