@@ -163,22 +163,43 @@ fn refits_keep_the_layouts_alike() {
         });
         moved.set_positions(twisted.collect()).unwrap();
         let report = compact.refit(&moved).unwrap();
-        plain.refit(&moved).unwrap();
-        assert!(report.degradation.is_finite());
+        let plain_report = plain.refit(&moved).unwrap();
+        // The same heuristic on the same topology: within bfloat16's
+        // rounding of the plain tree's figure, and clearly above 0.
+        assert!(
+            (report.degradation - plain_report.degradation).abs()
+                < 0.02 + 0.02 * plain_report.degradation.abs(),
+            "{report:?} against {plain_report:?}"
+        );
+        assert!(report.degradation > 0.01, "{report:?}");
         let rays = rays(&moved, 1000, &mut rng);
         assert_same_hits(&plain, &compact, &rays, &format!("refit {step}"));
         for ray in rays.iter().step_by(10) {
             let w = WatertightRay::new(ray);
+            // Nearest, and of equal distances the lowest triangle index.
             let brute = (0..moved.triangle_count())
                 .filter_map(|t| {
                     let [a, b, c] = moved.corners(t);
-                    w.intersect(a, b, c, ray.t_min, ray.t_max).map(|h| h.t)
+                    w.intersect(a, b, c, ray.t_min, ray.t_max)
+                        .map(|h| (h.t, t as u32))
                 })
-                .min_by(f32::total_cmp);
-            assert_eq!(compact.closest_hit(ray).map(|h| h.t), brute, "{ray:?}");
+                .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            let found = compact.closest_hit(ray).map(|h| (h.t, h.triangle));
+            assert_eq!(found, brute, "{ray:?}");
         }
     }
     assert!(compact.refit(&shapes::cube(1.0, 1)).is_err());
+    // Moved back in place: nothing grew.
+    let report = compact.refit(&mesh).unwrap();
+    assert_eq!(report.degradation, 0.0, "{report:?}");
+    let shifted: Vec<Vec3> = mesh
+        .positions()
+        .iter()
+        .map(|p| *p + Vec3::new(100.0, -3.0, 7.0))
+        .collect();
+    moved.set_positions(shifted).unwrap();
+    let report = compact.refit(&moved).unwrap();
+    assert!(report.degradation.abs() < 0.01, "translation: {report:?}");
 }
 
 /// A mesh split along every edge (each triangle its own corners) is welded
@@ -204,9 +225,14 @@ fn welded_seams_that_part_are_laid_out_again() {
         })
         .collect();
     exploded.set_positions(opened).unwrap();
-    plain.refit(&exploded).unwrap();
-    compact.refit(&exploded).unwrap();
+    let plain_report = plain.refit(&exploded).unwrap();
+    let report = compact.refit(&exploded).unwrap();
     assert!(compact.vertex_count() > sphere.positions().len());
+    assert!(report.degradation > 0.01, "the seams opened: {report:?}");
+    assert!(
+        (report.degradation - plain_report.degradation).abs() < 0.01,
+        "{report:?} {plain_report:?}"
+    );
     assert_same_hits(&plain, &compact, &rays(&exploded, 500, &mut rng), "parted");
 }
 

@@ -66,12 +66,16 @@ pub(crate) fn mesh_hit<M: LeafTriangles>(mesh: &M, slot: u32, h: TriangleHit) ->
 /// How far past the best hit so far boxes are still opened, relative to its
 /// distance: a box's entry distance is rounded (about 3 ulps) and so is a
 /// hit's, so a box holding a hit at the same or a nearer distance may
-/// compute an entry just past it. 2^-16 is about 128 ulps.
+/// compute an entry just past it. 2^-16 is about 128 ulps: enough unless a
+/// hit's own distance carries more (a ray grazing a triangle whose corners
+/// lie far beyond the hit, where the watertight test's distance loses
+/// about 1e-3 relative), where a nearer hit can still be passed over.
 const BOUND_SLACK: f32 = 1.0 / 65536.0;
 
 /// The nearest hit within the ray's range; of hits at the same distance,
 /// the one on the triangle of lowest mesh index, so the answer is the
-/// brute-force one whatever the tree's order or layout.
+/// brute-force one whatever the tree's order or layout (up to the grazing
+/// cases of [`BOUND_SLACK`]).
 #[inline]
 pub(crate) fn closest_hit<M: LeafTriangles>(mesh: &M, ray: &Ray) -> Option<MeshHit> {
     let mut best: Option<(u32, TriangleHit)> = None;

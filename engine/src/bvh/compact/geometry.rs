@@ -64,6 +64,10 @@ impl SharedCorners {
                     let mut at = latest[w] as usize;
                     if latest[w] == u32::MAX || at < base {
                         at = out.vertices.len();
+                        assert!(
+                            at < u32::MAX as usize,
+                            "fewer than 2^32 - 1 stored vertices"
+                        );
                         out.vertices.push(positions[v as usize].to_array());
                         latest[w] = at as u32;
                     }
@@ -190,16 +194,29 @@ mod tests {
     fn seams_are_welded_and_far_corners_copied() {
         // Every triangle with its own three vertices, as a mesh split along
         // every edge for flat normals.
-        let sphere = shapes::icosphere(1.0, 6);
+        // More welded vertices than 16 bits reach.
+        let sphere = shapes::icosphere(1.0, 7);
         let split = shapes::unwelded(&sphere);
         // A scrambled order: neighbours far apart, so corners reach back.
         let n = split.triangle_count() as u32;
         let order: Vec<u32> = (0..n).map(|i| (i * 7919) % n).collect();
-        let shared = SharedCorners::new(&split, &order);
-        assert!(shared.vertex_count() >= sphere.positions().len());
-        assert!(shared.vertex_count() < 2 * sphere.positions().len());
+        let mut shared = SharedCorners::new(&split, &order);
+        assert!(
+            shared.vertex_count() > sphere.positions().len(),
+            "no far copies"
+        );
+        // A scrambled order copies many, but welding still saves.
+        assert!(shared.vertex_count() < split.positions().len());
         for (slot, &t) in order.iter().enumerate() {
             assert!(same_bits(shared.corners(slot), split.corners(t as usize)));
+        }
+        // A refit finds every copy again.
+        let mut moved = split.clone();
+        let scaled = split.positions().iter().map(|p| *p * 3.0 - Vec3::Y);
+        moved.set_positions(scaled.collect()).unwrap();
+        assert!(shared.refit(&moved, &order));
+        for (slot, &t) in order.iter().enumerate() {
+            assert!(same_bits(shared.corners(slot), moved.corners(t as usize)));
         }
     }
 

@@ -1,7 +1,7 @@
 //! The compact layout of a mesh's hierarchy (the ReduceM idea of the
 //! dissertation, chapter 3, on today's wide trees): 64-byte nodes with
 //! child boxes on an 8-bit grid ([`node`]), and triangles as 16-bit offsets
-//! into shared vertices ([`geometry`]), about a quarter of the plain
+//! into shared vertices ([`geometry`]), about a third of the plain
 //! layout's bytes per triangle.
 //!
 //! The topology is the plain tree's (same build, same leaves), so the same
@@ -131,9 +131,9 @@ impl CompactBvh {
         self.tree.sah_cost()
     }
 
-    /// Bytes held: nodes, build ratios, slot order, vertices, corners and
-    /// the vertices' sources (what a refit reads). Everything a query needs;
-    /// the mesh itself is not needed.
+    /// Bytes held: nodes (with their build ratios), slot order, vertices,
+    /// corners and block starts. Everything a query needs; the mesh itself
+    /// is not needed.
     pub fn memory_bytes(&self) -> usize {
         self.tree.memory_bytes() + self.prim_ids.capacity() * 4 + self.triangles.memory_bytes()
     }

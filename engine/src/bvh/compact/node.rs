@@ -3,7 +3,8 @@
 //!
 //! 64 bytes, one cache line, where the plain node takes two: an origin and
 //! a power-of-two step per axis (15 bytes), one byte per child plane (24),
-//! the first inner child and first triangle (8), a count per slot (4), and
+//! a bit per inner slot (1), the first inner child and first triangle (8),
+//! a count per slot (4), and
 //! the rebuild heuristic's build-time ratios in bfloat16 (10), which only
 //! refit reads but which fill what would be padding. Inner children are
 //! stored contiguously in slot order, and so are the leaf slots'
@@ -11,7 +12,8 @@
 //! al.'s compressed wide BVH).
 //!
 //! Decoding is `origin + q * step` in `f32`. `q * step` is exact (a byte
-//! times a power of two), so the decoded plane is one correctly rounded sum,
+//! times a power of two; coordinates below the mesh limit of 1e15 keep
+//! steps far below overflow), so the decoded plane is one correctly rounded sum,
 //! the same on every machine and in the encoder, which picks each byte so
 //! that the decoded box contains the true one. The robust slab test then
 //! holds on decoded boxes as on stored ones.
@@ -72,7 +74,7 @@ impl Default for CompactNode4 {
     }
 }
 
-/// The upper half of `x`'s bits: 8 bits of mantissa, plenty for a ratio
+/// The upper half of `x`'s bits: 8 significant bits, plenty for a ratio
 /// compared with a 40% threshold.
 pub(crate) const fn bfloat16(x: f32) -> u16 {
     (x.to_bits() >> 16) as u16
@@ -240,7 +242,12 @@ fn grid_exponent(origin: f32, top: f32) -> u8 {
         1
     };
     let mut e = guess.clamp(1, 254) as u8;
-    while e < 254 && decode(origin, u8::MAX, step(e)) < top {
+    // The grid must reach the top, and a step must leave the origin (on a
+    // flat axis too), so that an empty slot's codes (255 above 0) decode
+    // to an empty box.
+    while e < 254
+        && (decode(origin, u8::MAX, step(e)) < top || decode(origin, 1, step(e)) == origin)
+    {
         e += 1;
     }
     e
@@ -347,12 +354,40 @@ mod tests {
     #[test]
     fn empty_slots_decode_empty_and_flat_boxes_stay_flat() {
         let flat = Aabb::new(Vec3A::new(2.0, 3.0, 4.0), Vec3A::new(2.0, 5.0, 4.0));
-        let boxes = encoded([Some(flat), None, None, None]);
-        assert_eq!(boxes.slot_aabb(0).min, flat.min);
-        assert_eq!(boxes.slot_aabb(0).max.x, 2.0);
-        for s in 1..4 {
-            let e = boxes.slot_aabb(s);
-            assert!(e.min.x > e.max.x || e.min.y > e.max.y || e.min.z > e.max.z);
+        let point = Aabb::new(Vec3A::splat(5.0), Vec3A::splat(5.0));
+        for b in [flat, point] {
+            let boxes = encoded([Some(b), None, None, None]);
+            assert_eq!(boxes.slot_aabb(0).min, b.min);
+            assert_eq!(boxes.slot_aabb(0).max.x, b.max.x);
+            for s in 1..4 {
+                let e = boxes.slot_aabb(s);
+                assert!(e.min.x > e.max.x && e.min.z > e.max.z, "{e:?}");
+            }
         }
+    }
+
+    #[test]
+    fn the_sse2_decode_is_the_portable_one() {
+        let n = CompactNode4 {
+            q: std::array::from_fn(|i| std::array::from_fn(|j| (i * 40 + j * 13) as u8)),
+            ..CompactNode4::default()
+        };
+        let portable =
+            n.q.map(|q| Vec4::new(q[0] as f32, q[1] as f32, q[2] as f32, q[3] as f32));
+        assert_eq!(grid_lanes(&n.q), portable);
+    }
+
+    #[test]
+    fn leaf_starts_sum_the_counts_before_without_carrying() {
+        let slots = [Slot::Leaf, Slot::Leaf, Slot::Leaf, Slot::Leaf];
+        let n = CompactNode4::new(0, 1000, slots, [MAX_LEAF; 4]);
+        let firsts: Vec<u32> = (0..4).map(|s| n.leaf_first(s)).collect();
+        assert_eq!(firsts, [1000, 1085, 1170, 1255]);
+        let mixed = [Slot::Inner(0), Slot::Leaf, Slot::Empty, Slot::Leaf];
+        let n = CompactNode4::new(7, 20, mixed, [0, 3, 0, 85]);
+        assert_eq!(n.leaf_first(3), 23);
+        assert_eq!(n.slot(0), Slot::Inner(7));
+        assert_eq!(n.slot(2), Slot::Empty);
+        assert_eq!(n.count(3), 85);
     }
 }

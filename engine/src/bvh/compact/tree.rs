@@ -17,8 +17,16 @@ pub struct CompactBvh4 {
 impl CompactBvh4 {
     /// The tree of `plain` and the order of its triangles: slot `i` of
     /// the compact tree holds slot `order[i]` of the plain one.
-    pub fn from_plain(plain: &Bvh4) -> (Self, Vec<u32>) {
-        let mut nodes = vec![CompactNode4::default(); plain.nodes.len().min(1)];
+    ///
+    /// Leaves must hold at most [`super::node::MAX_LEAF`] triangles (the
+    /// build clamps `max_leaf_size`), and the tree have fewer than 2^29
+    /// nodes (the walk's stack entries).
+    pub(crate) fn from_plain(plain: &Bvh4) -> (Self, Vec<u32>) {
+        assert!(plain.nodes.len() < 1 << 29, "a tree of at most 2^29 nodes");
+        if plain.nodes.is_empty() {
+            return (Self::default(), Vec::new());
+        }
+        let mut nodes = vec![CompactNode4::default()];
         let mut order = Vec::new();
         let mut stack = vec![(0usize, 0usize)];
         while let Some((from, to)) = stack.pop() {
