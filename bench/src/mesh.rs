@@ -79,14 +79,16 @@ pub fn hall(size: &str) -> Result<BenchMesh, String> {
         .parse::<f64>()
         .map(|n| (n * scale) as u64)
         .map_err(|_| format!("--hall {size}: give a size such as 10k, 200k or 20m"))?;
+    // The bundled hall's document with its name and triangle target set.
     let base = std::fs::read_to_string(scenes.join("hall-200k.json")).map_err(|e| e.to_string())?;
-    let text = base
-        .replace("\"hall-200k\"", &format!("\"hall-{size}\""))
-        .replace(
-            "\"target_triangles\": 200000",
-            &format!("\"target_triangles\": {triangles}"),
-        );
-    let scene = Scene::from_json_str(&text, None).map_err(|e| format!("hall-{size}: {e}"))?;
+    let mut doc: serde_json::Value = serde_json::from_str(&base).map_err(|e| e.to_string())?;
+    doc["name"] = format!("hall-{size}").into();
+    let target = doc
+        .pointer_mut("/objects/0/mesh/hall/target_triangles")
+        .ok_or("scenes/hall-200k.json: no objects[0].mesh.hall.target_triangles")?;
+    *target = triangles.into();
+    let scene =
+        Scene::from_json_str(&doc.to_string(), None).map_err(|e| format!("hall-{size}: {e}"))?;
     let mesh = scene
         .world_mesh()
         .map_err(|e| format!("hall-{size}: {e}"))?;

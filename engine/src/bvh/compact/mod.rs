@@ -116,17 +116,6 @@ impl CompactBvh {
         self.triangles.vertex_count()
     }
 
-    pub fn bounds(&self) -> Aabb {
-        self.tree
-            .nodes()
-            .first()
-            .map(|n| {
-                let b = n.boxes();
-                (0..4).fold(Aabb::EMPTY, |u, s| u.union(b.slot_aabb(s)))
-            })
-            .unwrap_or(Aabb::EMPTY)
-    }
-
     pub fn sah_cost(&self) -> f32 {
         self.tree.sah_cost()
     }

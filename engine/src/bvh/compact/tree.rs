@@ -111,13 +111,11 @@ impl CompactBvh4 {
             .zip(boxes.par_iter())
             .for_each(|(n, b)| n.set_boxes(b));
         // Both sides rounded alike, so an unchanged tree measures 0.
-        let now: Vec<[f32; 5]> = self
+        let now = self
             .ratios(&boxes, &leaf_area_sum)
-            .into_iter()
-            .map(|r| r.map(|x| from_bfloat16(bfloat16(x))))
-            .collect();
+            .map(|r| r.map(|x| from_bfloat16(bfloat16(x))));
         let built: Vec<[f32; 5]> = self.nodes.iter().map(CompactNode4::build_ratios).collect();
-        wide::refit::degradation(&built, &now, |i, s| self.nodes[i].count(s) > 1)
+        wide::refit::degradation(&built, now, |i, s| self.nodes[i].count(s) > 1)
     }
 
     /// Records the area ratios of `leaf_bounds` as the build-time reference.
@@ -127,27 +125,23 @@ impl CompactBvh4 {
         leaf_area_sum: impl Fn(u32, u32) -> f32,
     ) {
         let boxes = self.exact_boxes(&leaf_bounds);
-        let ratios = self.ratios(&boxes, &leaf_area_sum);
+        let ratios: Vec<[f32; 5]> = self.ratios(&boxes, &leaf_area_sum).collect();
         for (n, r) in self.nodes.iter_mut().zip(ratios) {
             n.set_build_ratios(r);
         }
     }
 
-    fn ratios(
-        &self,
-        boxes: &[[Option<Aabb>; 4]],
-        leaf_area_sum: &impl Fn(u32, u32) -> f32,
-    ) -> Vec<[f32; 5]> {
-        self.nodes
-            .iter()
-            .zip(boxes)
-            .map(|(n, b)| {
-                let slots = b.map(|b| b.unwrap_or(Aabb::EMPTY));
-                wide::refit::node_ratios(&slots, |s| {
-                    (n.count(s) > 1).then(|| leaf_area_sum(n.leaf_first(s), n.count(s)))
-                })
+    fn ratios<'a>(
+        &'a self,
+        boxes: &'a [[Option<Aabb>; 4]],
+        leaf_area_sum: &'a impl Fn(u32, u32) -> f32,
+    ) -> impl Iterator<Item = [f32; 5]> + 'a {
+        self.nodes.iter().zip(boxes).map(|(n, b)| {
+            let slots = b.map(|b| b.unwrap_or(Aabb::EMPTY));
+            wide::refit::node_ratios(&slots, |s| {
+                (n.count(s) > 1).then(|| leaf_area_sum(n.leaf_first(s), n.count(s)))
             })
-            .collect()
+        })
     }
 
     /// SAH cost of the tree as traced (decoded boxes), as

@@ -74,12 +74,8 @@ impl Bvh4 {
 
     /// The rebuild heuristic on the current boxes (see [`degradation`]).
     pub(crate) fn degradation(&self, leaf_area_sum: impl Fn(u32, u32) -> f32) -> f32 {
-        let now: Vec<[f32; 5]> = self
-            .nodes
-            .iter()
-            .map(|n| Self::ratios(n, &leaf_area_sum))
-            .collect();
-        degradation(&self.build_ratios, &now, |i, s| {
+        let now = self.nodes.iter().map(|n| Self::ratios(n, &leaf_area_sum));
+        degradation(&self.build_ratios, now, |i, s| {
             self.nodes[i].is_leaf_slot(s) && self.nodes[i].count[s] > 1
         })
     }
@@ -110,11 +106,11 @@ pub(crate) fn node_ratios(
 /// translation; large when neighbours part.
 pub(crate) fn degradation(
     built: &[[f32; 5]],
-    now: &[[f32; 5]],
+    now: impl Iterator<Item = [f32; 5]>,
     counted: impl Fn(usize, usize) -> bool,
 ) -> f32 {
     let (mut sum, mut count) = (0.0f64, 0usize);
-    for (i, (now, built)) in now.iter().zip(built).enumerate() {
+    for (i, (now, built)) in now.zip(built).enumerate() {
         sum += (now[0] - built[0]) as f64;
         count += 1;
         for s in 0..4 {
