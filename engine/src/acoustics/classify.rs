@@ -242,13 +242,12 @@ fn record_samples(
         plane.normal.dot(f.edge_u),
         plane.normal.dot(f.edge_v),
     );
-    let mut record = |k: usize, x: f64, y: f64| {
-        if edges
+    let inside = |x: f64, y: f64| {
+        edges
             .iter()
-            .any(|&(normal, offset)| normal.x * x + normal.y * y - offset < -MARGIN)
-        {
-            return;
-        }
+            .all(|&(normal, offset)| normal.x * x + normal.y * y - offset >= -MARGIN)
+    };
+    let mut record = |k: usize, x: f64, y: f64| {
         let depth = plane_offset / (d0 + du * x + dv * y);
         if !(depth > 0.0 && depth < samples.depth[k]) {
             return;
@@ -264,16 +263,44 @@ fn record_samples(
         }
     };
     for i in i0..=i1 + 1 {
-        for j in j0..=j1 + 1 {
-            record(i * (n + 1) + j, i as f64 * step, j as f64 * step);
+        let x = i as f64 * step;
+        let y = |j: usize| j as f64 * step;
+        for j in row_span(j0..=j1 + 1, |j| inside(x, y(j))) {
+            record(i * (n + 1) + j, x, y(j));
         }
     }
     for i in i0..=i1 {
-        for j in j0..=j1 {
-            let (x, y) = ((i as f64 + 0.5) * step, (j as f64 + 0.5) * step);
-            record((n + 1) * (n + 1) + i * n + j, x, y);
+        let x = (i as f64 + 0.5) * step;
+        let y = |j: usize| (j as f64 + 0.5) * step;
+        for j in row_span(j0..=j1, |j| inside(x, y(j))) {
+            record((n + 1) * (n + 1) + i * n + j, x, y(j));
         }
     }
+}
+
+/// The `j` of `range` for which `inside(j)` holds, given that they form
+/// one run: only the points outside it at either end are tested.
+///
+/// Along a row of sample points, an edge's test `a x + b y - c >= -MARGIN`
+/// is monotone in `y` even as rounded (every rounded operation is monotone
+/// in its operand), so each edge keeps a run of the row and the convex
+/// polygon's edges together keep one: the same points as testing each.
+fn row_span(
+    range: std::ops::RangeInclusive<usize>,
+    inside: impl Fn(usize) -> bool,
+) -> std::ops::RangeInclusive<usize> {
+    let (mut first, mut last) = range.into_inner();
+    while first <= last && !inside(first) {
+        first += 1;
+    }
+    while last > first && !inside(last) {
+        last -= 1;
+    }
+    if first > last {
+        // Empty: `1..=0`.
+        return 1..=0;
+    }
+    first..=last
 }
 
 /// Projects a triangle given in window coordinates `(x, y, s)` onto the

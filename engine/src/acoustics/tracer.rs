@@ -382,7 +382,10 @@ fn expand(
     scratch.touched.clear();
     let f = &p.frustum;
     touch_cells(input, f, last_group, n, options.cells, scratch, stats);
-    scratch.touched.sort_unstable();
+    // One u64 key per pair: a cheaper comparison than the tuple's.
+    scratch
+        .touched
+        .sort_unstable_by_key(|&(group, cell)| (group as u64) << 32 | cell as u64);
     scratch.touched.dedup();
     let touched = std::mem::take(&mut scratch.touched);
     for cells in touched.chunk_by(|a, b| a.0 == b.0) {
@@ -506,14 +509,16 @@ fn sampled_cells(hit: &[u32], n: usize, touched: &mut Vec<(u32, u32)>) {
             let cell = (i * n + j) as u32;
             let corner = |a: usize, b: usize| hit[a * (n + 1) + b];
             let centre = hit[(n + 1) * (n + 1) + i * n + j];
-            for g in [
+            let groups = [
                 corner(i, j),
                 corner(i + 1, j),
                 corner(i, j + 1),
                 corner(i + 1, j + 1),
                 centre,
-            ] {
-                if g != NO_GROUP {
+            ];
+            // Mostly all five rays meet one group: push each group once.
+            for (k, &g) in groups.iter().enumerate() {
+                if g != NO_GROUP && !groups[..k].contains(&g) {
                     touched.push((g, cell));
                 }
             }
