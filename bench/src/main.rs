@@ -19,11 +19,14 @@
 //! impulse responses beside exact image sources, Sabine and Eyring (see
 //! `reverb`); `frusta-bench shadows [--scene NAME] [--json] [--save DIR]`
 //! times hard shadows by shadow map, selective and full ray tracing (see
-//! `shadows`).
+//! `shadows`); `frusta-bench lod [--hall SIZE] [--bound M] [--json] [--save
+//! DIR]` sets ray queries on levels of detail beside exact geometry (see
+//! `lod`).
 
 mod bvh_bench;
 mod ccd;
 mod collide;
+mod lod;
 mod mesh;
 mod propagation;
 mod provenance;
@@ -78,6 +81,9 @@ enum Command {
     /// Hard shadows of a moving light per frame: the plain shadow map,
     /// selective and full ray tracing side by side, wrong pixels counted.
     Shadows(shadows::Args),
+    /// Ray queries with cones against levels of detail (R-LODs) at growing
+    /// error bounds, beside exact geometry: time and hit displacement.
+    Lod(lod::Args),
 }
 
 fn main() -> ExitCode {
@@ -92,6 +98,7 @@ fn main() -> ExitCode {
         Command::Collide(args) => collide::run(args),
         Command::Reverb(args) => reverb::run(args),
         Command::Shadows(args) => shadows::run(args),
+        Command::Lod(args) => lod::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -17,7 +17,9 @@
 
 pub mod build;
 pub mod compact;
+pub mod lod;
 mod mesh_bvh;
+mod moments;
 pub mod node;
 pub mod obb;
 mod ray_queries;

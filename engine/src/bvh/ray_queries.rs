@@ -27,6 +27,18 @@ pub(crate) trait LeafTriangles {
 pub(crate) fn walk<M: LeafTriangles>(
     mesh: &M,
     ray: &Ray,
+    on_hit: impl FnMut(u32, TriangleHit, &mut f32) -> Flow,
+) {
+    walk_pruned(mesh, ray, |_, _, _| true, on_hit);
+}
+
+/// [`walk`], asking `open(node, entry, t_max)` before entering each inner
+/// node below the root (see [`traverse::walk_pruned`]).
+#[inline(always)]
+pub(crate) fn walk_pruned<M: LeafTriangles>(
+    mesh: &M,
+    ray: &Ray,
+    open: impl FnMut(usize, f32, &mut f32) -> bool,
     mut on_hit: impl FnMut(u32, TriangleHit, &mut f32) -> Flow,
 ) {
     if !ray.is_valid() {
@@ -34,10 +46,11 @@ pub(crate) fn walk<M: LeafTriangles>(
     }
     let tri_ray = WatertightRay::new(ray);
     let t_min = ray.t_min;
-    traverse::walk(
+    traverse::walk_pruned(
         mesh.tree(),
         &RayTest::new(ray),
         ray.t_max,
+        open,
         |(first, count), t_max| {
             for slot in first..first + count {
                 let [a, b, c] = mesh.corners(slot);
@@ -78,8 +91,19 @@ const BOUND_SLACK: f32 = 1.0 / 65536.0;
 /// cases of [`BOUND_SLACK`]).
 #[inline]
 pub(crate) fn closest_hit<M: LeafTriangles>(mesh: &M, ray: &Ray) -> Option<MeshHit> {
+    closest_hit_pruned(mesh, ray, |_, _, _| true)
+}
+
+/// [`closest_hit`] among the triangles of the subtrees `open` lets the walk
+/// into (see [`walk_pruned`]).
+#[inline]
+pub(crate) fn closest_hit_pruned<M: LeafTriangles>(
+    mesh: &M,
+    ray: &Ray,
+    open: impl FnMut(usize, f32, &mut f32) -> bool,
+) -> Option<MeshHit> {
     let mut best: Option<(u32, TriangleHit)> = None;
-    walk(mesh, ray, |slot, h, t_max| {
+    walk_pruned(mesh, ray, open, |slot, h, t_max| {
         let better = best
             .is_none_or(|(s, b)| h.t < b.t || (h.t == b.t && mesh.prim_id(slot) < mesh.prim_id(s)));
         if better {

@@ -35,7 +35,7 @@ pub use frustum::FrustumTest;
 pub use overlap::OverlapTest;
 pub use ray::RayTest;
 pub(crate) use wide::prefetch;
-pub use wide::{walk, Slot, WideTree};
+pub use wide::{walk, walk_pruned, Slot, WideTree};
 pub use window::{Projection, WindowRect, WindowTest, WindowVisitor};
 
 use super::wide::Boxes4;

@@ -102,7 +102,21 @@ impl WideTree for Bvh4 {
 pub fn walk<W: WideTree, T: NodeTest>(
     tree: &W,
     test: &T,
+    bound: f32,
+    leaf: impl FnMut(W::Leaf, &mut f32) -> Flow,
+) {
+    walk_pruned(tree, test, bound, |_, _, _| true, leaf);
+}
+
+/// [`walk`], asking `open(node, key, bound)` before it enters each inner
+/// node below the root: `false` keeps the walk out of that subtree (a
+/// level of detail answered for it instead; `open` may lower `bound`).
+#[inline(always)]
+pub fn walk_pruned<W: WideTree, T: NodeTest>(
+    tree: &W,
+    test: &T,
     mut bound: f32,
+    mut open: impl FnMut(usize, f32, &mut f32) -> bool,
     mut leaf: impl FnMut(W::Leaf, &mut f32) -> Flow,
 ) {
     if tree.node_count() == 0 {
@@ -160,6 +174,9 @@ pub fn walk<W: WideTree, T: NodeTest>(
                 continue;
             }
             if index & LEAF_REF == 0 {
+                if !open(index as usize, key, &mut bound) {
+                    continue;
+                }
                 node = index as usize;
                 break;
             }
