@@ -11,6 +11,7 @@ use frusta_engine::collision::continuous::{read_sample_queries, CcdOptions, CcdS
 use serde::Serialize;
 
 use crate::provenance::{self, Provenance};
+use crate::stats::median;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -58,11 +59,6 @@ struct Saved<'a> {
     rounds: usize,
     #[serde(flatten)]
     counted: &'a Counted,
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 pub fn run(args: Args) -> Result<(), String> {

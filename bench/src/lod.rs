@@ -23,6 +23,7 @@ use serde::Serialize;
 
 use crate::mesh;
 use crate::provenance::{self, Provenance};
+use crate::stats::median;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -279,11 +280,6 @@ fn sphere_rays(origin: Vec3, n: usize) -> Vec<Ray> {
 
 fn ms_since(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// VmHWM of this process, MB (Linux).

@@ -36,6 +36,7 @@ mod reverb;
 mod serve;
 mod shadows;
 mod soak;
+mod stats;
 mod update;
 
 use std::process::ExitCode;

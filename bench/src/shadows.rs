@@ -24,6 +24,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 use crate::provenance::{self, Provenance};
+use crate::stats::median;
 
 /// Scenes in run order.
 const SCENES: &[&str] = &["hall-10k", "hall-200k", "bunny-room"];
@@ -230,11 +231,6 @@ fn bunny_room() -> Result<Scene, String> {
         materials: vec![Material::uniform("plaster", 0.1).map_err(|e| e.to_string())?],
         objects: vec![object("room", room), object("bunny", mesh)],
     })
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn differing(a: &ShadowImage, b: &ShadowImage) -> u64 {

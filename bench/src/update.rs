@@ -17,6 +17,7 @@ use glam::{Quat, Vec3};
 use serde::Serialize;
 
 use crate::provenance::{self, Provenance};
+use crate::stats::median;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -57,11 +58,6 @@ fn object(name: &str, mesh: TriangleMesh, at: Vec3) -> SceneObject {
         transform: RigidTransform::from_translation(at),
         dynamic: true,
     }
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn ms_since(start: Instant) -> f64 {

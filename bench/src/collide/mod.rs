@@ -26,6 +26,7 @@ use serde::Serialize;
 
 use crate::provenance::{self, Provenance};
 use crate::report::aligned;
+use crate::stats::median;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -270,11 +271,6 @@ fn peer(case: &Case) -> Replay {
         }
     }
     replay
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn cloth_case(n: usize, frames: usize) -> Result<Case, String> {

@@ -29,6 +29,7 @@ use serde::Serialize;
 use crate::propagation::scenes;
 use crate::provenance::{self, Provenance};
 use crate::report::aligned;
+use crate::stats::median;
 use theory::BoxWalls;
 
 /// Just-noticeable differences (ISO 3382-1 Annex A).
@@ -144,11 +145,6 @@ struct Saved<'a> {
     provenance: Provenance,
     rounds: usize,
     runs: &'a [Run],
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn jnd(frusta: Option<f64>, reference: Option<f64>, relative: bool, step: f64) -> Option<f64> {
