@@ -90,7 +90,8 @@ struct Setup {
     fit_ms: f64,
     bvh_bytes: usize,
     lod_bytes: usize,
-    /// The process's peak resident memory after the scene ran (VmHWM).
+    /// The process's peak resident memory so far, after this scene ran
+    /// (VmHWM): it includes the scenes run before it.
     peak_rss_mb: Option<f64>,
 }
 
@@ -206,7 +207,7 @@ pub fn run(args: Args) -> Result<(), String> {
     };
     let saved = Saved {
         provenance,
-        rounds: args.rounds,
+        rounds: args.rounds.max(1),
         printed: Printed {
             runs: &runs,
             scenes: &scenes,
@@ -297,7 +298,7 @@ fn table(runs: &[Run], scenes: &[Setup], args: &Args, cone: Cone) -> String {
          on all threads; exact = the same rays on the triangles; moved = largest distance between \
          a ray's hit and its exact hit; planes = rays a plane answered; mismatched = rays that hit \
          with one and not the other\n\n",
-        args.rays,
+        args.rays.max(1),
         cone.angle,
         args.cone_rays,
         args.rounds.max(1),

@@ -50,4 +50,5 @@ fn lod_json_has_the_documented_fields() {
     assert!(runs[1]["plane_hits"].as_u64().unwrap() > 0, "{}", runs[1]);
     let scenes = doc["scenes"].as_array().unwrap();
     assert!(scenes[0]["lod_bytes"].as_u64().unwrap() > 0);
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -242,10 +242,12 @@ fn record_samples(
         plane.normal.dot(f.edge_u),
         plane.normal.dot(f.edge_v),
     );
+    // As `!any(< -MARGIN)`, so a NaN edge (a zero-length one) rejects
+    // nothing; NaN is the same along a row, so the run argument holds.
     let inside = |x: f64, y: f64| {
-        edges
+        !edges
             .iter()
-            .all(|&(normal, offset)| normal.x * x + normal.y * y - offset >= -MARGIN)
+            .any(|&(normal, offset)| normal.x * x + normal.y * y - offset < -MARGIN)
     };
     let mut record = |k: usize, x: f64, y: f64| {
         let depth = plane_offset / (d0 + du * x + dv * y);
@@ -288,19 +290,16 @@ fn record_samples(
 fn row_span(
     range: std::ops::RangeInclusive<usize>,
     inside: impl Fn(usize) -> bool,
-) -> std::ops::RangeInclusive<usize> {
-    let (mut first, mut last) = range.into_inner();
-    while first <= last && !inside(first) {
+) -> std::ops::Range<usize> {
+    let (mut first, last) = range.into_inner();
+    let mut end = last + 1;
+    while first < end && !inside(first) {
         first += 1;
     }
-    while last > first && !inside(last) {
-        last -= 1;
+    while end > first + 1 && !inside(end - 1) {
+        end -= 1;
     }
-    if first > last {
-        // Empty: `1..=0`.
-        return 1..=0;
-    }
-    first..=last
+    first..end
 }
 
 /// Projects a triangle given in window coordinates `(x, y, s)` onto the

@@ -16,7 +16,11 @@
 //! query that may use a node may use everything below it.
 //!
 //! The plane is met only inside the node's box grown by the deviation (the
-//! paper's extension against cracks between neighbouring planes).
+//! paper's extension against cracks between neighbouring planes). That
+//! closes the cracks for rays that meet the surface steeply; a ray grazing
+//! it can meet a node's triangles where the plane lies outside the grown
+//! box, and pass a crack. Distances are in the ray's units (`t`), errors
+//! in the mesh's: they agree for unit directions.
 //!
 //! ```
 //! use frusta_engine::bvh::lod::{closest_hit, LodOptions, LodTree};
@@ -61,9 +65,10 @@ pub struct LodPlane {
     pub triangle: u32,
 }
 
-/// A ray's cone: the radius of its footprint is `spread + angle * t` at
-/// distance `t` (`angle`, the tangent of the half-angle; a pixel's or a
-/// frustum cell's, or grown by reflections as the paper does).
+/// A ray's cone: the radius of its footprint is `spread + angle * d` at
+/// distance `d` along the ray (`angle`, the tangent of the half-angle,
+/// close to the half-angle itself for narrow cones: a pixel's, a frustum
+/// cell's or a tail ray's share of the sphere).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cone {
     pub spread: f32,
@@ -103,7 +108,7 @@ impl LodOptions {
 pub struct LodHit {
     /// On a plane: its normal, the node's largest triangle, and `u = v = 0`.
     pub hit: MeshHit,
-    /// The error of the plane met; 0 on a triangle.
+    /// The error of the plane met, in the mesh's units; 0 on a triangle.
     pub error: f32,
 }
 
@@ -151,8 +156,12 @@ impl LodTree {
             .map(|i| fit_node(mesh, i, &sums[i]))
             .collect();
         for i in (0..nodes.len()).rev() {
+            // A child with no plane (no area: nothing there to hit) never
+            // stands for anything, and leaves its ancestors usable.
             for c in nodes[i].inner_children() {
-                planes[i].error = planes[i].error.max(planes[c].error);
+                if planes[c].error.is_finite() {
+                    planes[i].error = planes[i].error.max(planes[c].error);
+                }
             }
         }
         let errors: Vec<f32> = planes.iter().map(|p| p.error).collect();
@@ -239,9 +248,10 @@ fn fit_node(mesh: &MeshBvh, i: usize, (moments, facing): &(Moments, DVec3)) -> L
 
 /// `x` as an f32 no smaller than it.
 fn round_up(x: f64) -> f32 {
+    // x >= 0 here, so the next f32 up is the next bit pattern.
     let y = x as f32;
     if f64::from(y) < x {
-        y.next_up()
+        f32::from_bits(y.to_bits() + 1)
     } else {
         y
     }
@@ -258,8 +268,10 @@ fn for_each_leaf_below(tree: &Bvh4, node: usize, mut leaf: impl FnMut(u32, u32))
 }
 
 /// The nearest hit of `ray` on `mesh`, where every node whose level of
-/// detail `options` allows is met as its plane (clipped to its box grown
-/// by its deviation) instead of its triangles. Exact (the same answer as
+/// detail `options` allows (an error strictly below the bound and at most
+/// the cone's footprint where the ray enters the node) is met as its plane
+/// (clipped to its box grown by its deviation) instead of its triangles;
+/// of a plane and a triangle at one distance, the triangle. Exact (the same answer as
 /// [`MeshBvh::closest_hit`]) with [`LodOptions::EXACT`]. Fails when `lods`
 /// was not fitted to the mesh as it is now.
 pub fn closest_hit(
@@ -276,7 +288,8 @@ pub fn closest_hit(
                 .into(),
         });
     }
-    if !(options.max_error > lods.least_error) {
+    let some_plane_allowed = options.max_error > lods.least_error;
+    if !some_plane_allowed {
         // No plane can be used: the plain walk, without asking at nodes.
         let hit = mesh.closest_hit(ray);
         return Ok(hit.map(|hit| LodHit { hit, error: 0.0 }));
@@ -290,7 +303,9 @@ pub fn closest_hit(
         }
         let lod = &lods.planes[node];
         if let Some(t) = meet_plane(lod, &nodes[node].aabb(), ray, *t_max) {
-            *t_max = t;
+            // Boxes stay open past it as past a triangle's hit, so a
+            // triangle at the same distance is still met (and wins).
+            *t_max = t + t.abs() * ray_queries::BOUND_SLACK;
             plane_hit = Some(LodHit {
                 hit: MeshHit {
                     t,
@@ -398,7 +413,7 @@ mod tests {
             let b = bvh(&mesh);
             let lods = LodTree::fit(&b);
             let nodes = &b.wide().nodes;
-            for i in 0..nodes.len() {
+            for (i, node) in nodes.iter().enumerate() {
                 let lod = lods.plane(i);
                 let brute = brute_deviation(&mesh, &b, lod, i);
                 assert!(
@@ -406,12 +421,13 @@ mod tests {
                     "node {i}: {brute} > {lod:?}"
                 );
                 assert!(f64::from(lod.deviation) <= brute * 1.001 + 1e-5, "node {i}");
-                let radius = (nodes[i].aabb().max - nodes[i].aabb().min).length() * 0.5;
-                assert!(
-                    lod.error >= radius && lod.error >= lod.deviation,
-                    "node {i}"
-                );
-                for c in nodes[i].inner_children() {
+                let radius = (node.aabb().max - node.aabb().min).length() * 0.5;
+                // The error is at least the radius; the corners lie in the
+                // node's box, at most its diameter from a plane through the
+                // mean.
+                assert!(lod.error >= radius, "node {i}");
+                assert!(lod.deviation <= 2.0 * radius * 1.001 + 1e-5, "node {i}");
+                for c in node.inner_children() {
                     assert!(lod.error >= lods.plane(c).error, "node {i} above {c}");
                 }
             }
@@ -455,16 +471,72 @@ mod tests {
     }
 
     #[test]
-    fn bound_zero_is_the_exact_closest_hit() {
+    fn queries_that_allow_no_plane_are_the_exact_closest_hit() {
+        // Bound 0 takes the plain walk; a zero cone walks past every node
+        // through the hook, and must still find the same hits.
+        let no_footprint = LodOptions {
+            max_error: f32::INFINITY,
+            cone: Some(Cone {
+                spread: 0.0,
+                angle: 0.0,
+            }),
+        };
         for mesh in [shapes::icosphere(2.0, 4), shapes::torus(3.0, 1.0, 40, 20)] {
             let b = bvh(&mesh);
             let lods = LodTree::fit(&b);
             for ray in rays_from_inside(2000) {
-                let got = closest_hit(&b, &lods, &ray, &LodOptions::EXACT).unwrap();
-                assert_eq!(got.map(|h| h.hit), b.closest_hit(&ray), "{ray:?}");
-                assert!(got.is_none_or(|h| h.error == 0.0));
+                for options in [LodOptions::EXACT, no_footprint] {
+                    let got = closest_hit(&b, &lods, &ray, &options).unwrap();
+                    assert_eq!(got.map(|h| h.hit), b.closest_hit(&ray), "{ray:?}");
+                    assert!(got.is_none_or(|h| h.error == 0.0));
+                }
             }
         }
+    }
+
+    #[test]
+    fn footprints_count_distance_not_the_ray_parameter() {
+        // The same ray with a direction three times as long meets the same
+        // plane at a third of the parameter.
+        let b = bvh(&shapes::icosphere(2.0, 5));
+        let lods = LodTree::fit(&b);
+        let options = LodOptions {
+            max_error: 1.0,
+            cone: Some(Cone {
+                spread: 0.01,
+                angle: 0.02,
+            }),
+        };
+        let origin = Vec3::new(0.3, 0.2, 30.0);
+        let unit = Ray::new(origin, Vec3::NEG_Z);
+        let long = Ray::new(origin, Vec3::NEG_Z * 3.0);
+        let a = closest_hit(&b, &lods, &unit, &options).unwrap().unwrap();
+        let c = closest_hit(&b, &lods, &long, &options).unwrap().unwrap();
+        assert!(a.error > 0.0, "{a:?}");
+        assert_eq!(a.error, c.error);
+        assert!(
+            (a.hit.t - 3.0 * c.hit.t).abs() <= 1e-4 * a.hit.t,
+            "{a:?} {c:?}"
+        );
+    }
+
+    #[test]
+    fn a_centimetre_patch_gets_its_own_plane() {
+        // The covariance of a 1 cm patch in metres lies below the
+        // eigensolver's absolute thresholds unless it is scaled: a bowl
+        // 1 cm across, flattened to a slope, must still face up.
+        let mesh = shapes::icosphere(0.005, 4);
+        let bowl: Vec<Vec3> = mesh
+            .positions()
+            .iter()
+            .map(|p| Vec3::new(p.x, p.y, 0.2 * p.z.abs()))
+            .collect();
+        let bowl = TriangleMesh::new(bowl, mesh.triangles().to_vec()).unwrap();
+        let b = bvh(&bowl);
+        let lods = LodTree::fit(&b);
+        let root = lods.plane(0);
+        assert!(root.normal.z.abs() > 0.9, "{root:?}");
+        assert!(f64::from(root.deviation) >= brute_deviation(&bowl, &b, root, 0));
     }
 
     #[test]

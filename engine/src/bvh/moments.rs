@@ -48,8 +48,6 @@ impl Moments {
         }
     }
 
-    /// Principal axes of the covariance; the coordinate axes where there is
-    /// no area or the decomposition does not give a frame.
     /// The mean and the eigenvectors of the covariance, by ascending
     /// eigenvalue (the first is the normal of the best-fitting plane);
     /// `None` for no area.
@@ -61,7 +59,16 @@ impl Moments {
         let s = self.second.map(|x| x / self.area);
         let (xx, xy, xz) = (s[0] - m.x * m.x, s[1] - m.x * m.y, s[2] - m.x * m.z);
         let (yy, yz, zz) = (s[3] - m.y * m.y, s[4] - m.y * m.z, s[5] - m.z * m.z);
-        let cov = DMat3::from_cols_array(&[xx, xy, xz, xy, yy, yz, xz, yz, zz]);
+        // Scaled to a largest entry of 1: the eigensolver's thresholds are
+        // absolute (below about 1e-20 it answers x), which a 1 cm patch's
+        // covariance in metres already falls under. Scaling keeps the
+        // eigenvectors.
+        let entries = [xx, xy, xz, yy, yz, zz];
+        let size = entries.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        if !(size.is_finite() && size > 0.0) {
+            return None;
+        }
+        let cov = DMat3::from_cols_array(&[xx, xy, xz, xy, yy, yz, xz, yz, zz].map(|x| x / size));
         let vectors = DSymmetricEigen3::new(cov).eigenvectors;
         // glamx's own glam version: copied over by component.
         let column = |k: usize| {

@@ -127,6 +127,8 @@ impl Obb {
     }
 }
 
+/// An oriented box for every used slot of a mesh tree, in the tree's own
+/// layout (node, slot), fitted to the triangles below the slot.
 #[derive(Clone, Debug, Default)]
 pub struct ObbTree {
     boxes: Vec<[Obb; 4]>,

@@ -83,7 +83,7 @@ pub(crate) fn mesh_hit<M: LeafTriangles>(mesh: &M, slot: u32, h: TriangleHit) ->
 /// hit's own distance carries more (a ray grazing a triangle whose corners
 /// lie far beyond the hit, where the watertight test's distance loses
 /// about 1e-3 relative), where a nearer hit can still be passed over.
-const BOUND_SLACK: f32 = 1.0 / 65536.0;
+pub(crate) const BOUND_SLACK: f32 = 1.0 / 65536.0;
 
 /// The nearest hit within the ray's range; of hits at the same distance,
 /// the one on the triangle of lowest mesh index, so the answer is the
