@@ -12,6 +12,38 @@ pub struct RaysRequest {
     pub rays: Vec<RayInput>,
     #[serde(default)]
     pub mode: Mode,
+    /// Closest hits on levels of detail: each object's subtrees whose
+    /// error is below the bound (and the ray's cone footprint) are met as
+    /// one plane fitted to their triangles. Omitted or null: exact
+    /// geometry. Every hit then reports the error it took.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lod: Option<LodInput>,
+}
+
+/// How coarse a ray query may see the geometry.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LodInput {
+    /// Largest error a level of detail may carry, metres (about the size
+    /// of the features it drops); 0 is exact geometry.
+    #[serde(default = "default_max_error_m")]
+    #[schema(minimum = 0.0, default = 0.01)]
+    pub max_error_m: f32,
+    /// The rays' cone: the tangent of its half-angle (a pixel's, or a
+    /// ray's share of the sphere); omitted: no footprint limit, only
+    /// `max_error_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 0.0, maximum = 1.0)]
+    pub cone_angle: Option<f32>,
+    /// The cone's radius at the ray's origin, metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 0.0)]
+    pub cone_spread_m: Option<f32>,
+}
+
+/// A conservative bound: a centimetre.
+fn default_max_error_m() -> f32 {
+    0.01
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
@@ -57,4 +89,8 @@ pub struct HitOutput {
     #[schema(value_type = Vector3)]
     pub normal: [f32; 3],
     pub material: String,
+    /// With `lod`: the error of the level of detail met, metres (0 on a
+    /// triangle; then `triangle` is the largest one it stands for).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lod_error_m: Option<f32>,
 }

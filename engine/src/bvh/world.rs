@@ -4,9 +4,12 @@
 //! level; deforming it refits only its own tree. Queries walk the top level
 //! with [`SceneBvh::walk_objects`] and each object's tree in its frame.
 
+use std::sync::{Arc, Mutex, PoisonError};
+
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::lod::LodTree;
 use super::traverse::pair::{leaves_within, Leaf};
 use super::traverse::{Flow, NodeTest, OverlapTest};
 use crate::bvh::{BuildOptions, Bvh, MeshBvh, UpdateReport};
@@ -23,6 +26,21 @@ pub struct Instance {
     to_object: RigidTransform,
     /// Identity transforms skip moving the query.
     identity: bool,
+    /// Levels of detail, fitted when first asked for (see
+    /// [`Instance::lods`]).
+    lods: LodCache,
+}
+
+/// The levels of detail of one object as last fitted; refitted when its
+/// tree has moved since.
+#[derive(Debug, Default)]
+struct LodCache(Mutex<Option<Arc<LodTree>>>);
+
+impl Clone for LodCache {
+    fn clone(&self) -> Self {
+        let cached = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        Self(Mutex::new(cached.clone()))
+    }
 }
 
 impl Instance {
@@ -30,6 +48,21 @@ impl Instance {
     #[inline]
     pub fn bvh(&self) -> &MeshBvh {
         &self.bvh
+    }
+
+    /// The object's levels of detail ([`super::lod`]), in its own frame:
+    /// fitted on first use and again once its mesh has moved, so scenes
+    /// that never ask for them never pay for them.
+    pub fn lods(&self) -> Arc<LodTree> {
+        let mut cached = self.lods.0.lock().unwrap_or_else(PoisonError::into_inner);
+        match &*cached {
+            Some(lods) if lods.fits(&self.bvh) => lods.clone(),
+            _ => {
+                let lods = Arc::new(LodTree::fit(&self.bvh));
+                *cached = Some(lods.clone());
+                lods
+            }
+        }
     }
 
     /// Material of each triangle, in mesh order.
@@ -105,6 +138,7 @@ impl SceneBvh {
                 to_world: o.transform,
                 to_object: o.transform.inverse(),
                 identity: o.transform.is_identity(),
+                lods: LodCache::default(),
             })
             .collect();
         let mut s = Self {

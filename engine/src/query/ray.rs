@@ -1,5 +1,6 @@
 use glam::Vec3;
 
+use crate::bvh::lod::{self, LodOptions, LodTree};
 use crate::bvh::traverse::{Flow, RayTest};
 use crate::bvh::{Instance, MeshHit, SceneBvh};
 use crate::geometry::{trace_batch, Ray};
@@ -110,6 +111,42 @@ impl SceneBvh {
                 });
             Flow::Continue(())
         });
+    }
+
+    /// [`closest_hit`](Self::closest_hit) on levels of detail
+    /// ([`crate::bvh::lod`]) where `options` allows them, for many rays in
+    /// parallel: each hit with the error of the plane it met (0 on a
+    /// triangle). The objects' planes are fitted on first use. Rigid
+    /// transforms keep distances, so cones and errors mean the same in
+    /// every object's frame.
+    pub fn closest_hits_lod(
+        &self,
+        rays: &[Ray],
+        options: &LodOptions,
+    ) -> Vec<Option<(SceneHit, f32)>> {
+        let some_plane_allowed = options.max_error > 0.0;
+        if !some_plane_allowed {
+            return trace_batch(rays, |r| self.closest_hit(r).map(|h| (h, 0.0)));
+        }
+        let lods: Vec<std::sync::Arc<LodTree>> =
+            self.instances().iter().map(Instance::lods).collect();
+        trace_batch(rays, |ray| {
+            if !ray.is_valid() {
+                return None;
+            }
+            let mut best: Option<(u32, lod::LodHit)> = None;
+            self.walk_objects(&RayTest::new(ray), ray.t_max, |object, inst, t_max| {
+                let local = local(inst, ray, *t_max);
+                if let Ok(Some(hit)) =
+                    lod::closest_hit(inst.bvh(), &lods[object as usize], &local, options)
+                {
+                    *t_max = hit.hit.t;
+                    best = Some((object, hit));
+                }
+                Flow::Continue(())
+            });
+            best.map(|(object, h)| (self.scene_hit(ray, object, h.hit), h.error))
+        })
     }
 
     /// [`closest_hit`](Self::closest_hit) for many rays, in parallel.

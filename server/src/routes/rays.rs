@@ -3,7 +3,8 @@
 
 use axum::extract::{Path, State};
 use axum::Json;
-use frusta_api::rays::{HitOutput, Mode, RayInput, RaysRequest, RaysResponse};
+use frusta_api::rays::{HitOutput, LodInput, Mode, RayInput, RaysRequest, RaysResponse};
+use frusta_engine::bvh::lod::{Cone, LodOptions};
 use frusta_engine::geometry::Ray;
 use frusta_engine::query::SceneHit;
 use frusta_engine::scene::Scene;
@@ -20,8 +21,9 @@ pub const MAX_RAYS: usize = 100_000;
 /// would reject batches well below the ray limit.
 pub const BODY_LIMIT: usize = 32 * 1024 * 1024;
 
-/// A hit with its object's and material's names.
-fn hit_output(scene: &Scene, hit: &SceneHit) -> HitOutput {
+/// A hit with its object's and material's names, and the error of the
+/// level of detail it met when the request asked for them.
+fn hit_output(scene: &Scene, hit: &SceneHit, lod_error_m: Option<f32>) -> HitOutput {
     let name_of = |names: Option<&String>| names.cloned().unwrap_or_default();
     HitOutput {
         t: hit.t,
@@ -31,7 +33,38 @@ fn hit_output(scene: &Scene, hit: &SceneHit) -> HitOutput {
         point: hit.point.to_array(),
         normal: hit.normal.to_array(),
         material: name_of(scene.materials.get(hit.material as usize).map(|m| &m.name)),
+        lod_error_m,
     }
+}
+
+/// The engine's options for a request's `lod`; closest hits only.
+fn lod_options(lod: &LodInput, mode: Mode) -> Result<LodOptions, ApiError> {
+    let invalid = |field: &str, reason: &str| ApiError::Invalid(format!("lod.{field} {reason}"));
+    if mode != Mode::Closest {
+        return Err(ApiError::Invalid(
+            "lod applies to closest hits: drop it or use \"mode\": \"closest\"".into(),
+        ));
+    }
+    if !(lod.max_error_m.is_finite() && lod.max_error_m >= 0.0) {
+        return Err(invalid("max_error_m", "must be finite and non-negative"));
+    }
+    let cone = match (lod.cone_angle, lod.cone_spread_m) {
+        (None, None) => None,
+        (angle, spread) => {
+            let (angle, spread) = (angle.unwrap_or(0.0), spread.unwrap_or(0.0));
+            if !(angle.is_finite() && (0.0..=1.0).contains(&angle)) {
+                return Err(invalid("cone_angle", "must be between 0 and 1"));
+            }
+            if !(spread.is_finite() && spread >= 0.0) {
+                return Err(invalid("cone_spread_m", "must be finite and non-negative"));
+            }
+            Some(Cone { spread, angle })
+        }
+    };
+    Ok(LodOptions {
+        max_error: lod.max_error_m,
+        cone,
+    })
 }
 
 /// The engine silently misses invalid rays; a client sending one has a
@@ -79,19 +112,33 @@ pub async fn trace(
         .enumerate()
         .map(|(i, r)| ray_of(r, i))
         .collect::<Result<Vec<_>, _>>()?;
+    let lod = request
+        .lod
+        .as_ref()
+        .map(|l| lod_options(l, request.mode))
+        .transpose()?;
     let response = state
         .queries()
         .run(move || {
             let live = entry.read();
             let bvh = live.acoustic.bvh();
-            match request.mode {
-                Mode::Closest => RaysResponse::Hits(
+            match (request.mode, lod) {
+                (Mode::Closest, None) => RaysResponse::Hits(
                     bvh.closest_hits(&rays)
                         .iter()
-                        .map(|h| h.as_ref().map(|h| hit_output(&live.scene, h)))
+                        .map(|h| h.as_ref().map(|h| hit_output(&live.scene, h, None)))
                         .collect(),
                 ),
-                Mode::Any => RaysResponse::Occluded(bvh.any_hits(&rays)),
+                (_, Some(lod)) => RaysResponse::Hits(
+                    bvh.closest_hits_lod(&rays, &lod)
+                        .iter()
+                        .map(|h| {
+                            h.as_ref()
+                                .map(|(h, error)| hit_output(&live.scene, h, Some(*error)))
+                        })
+                        .collect(),
+                ),
+                (Mode::Any, None) => RaysResponse::Occluded(bvh.any_hits(&rays)),
             }
         })
         .await?;
@@ -138,6 +185,81 @@ mod tests {
             .await;
         assert_eq!(status, StatusCode::OK);
         assert_eq!(body, json!({ "occluded": [false, true] }));
+    }
+
+    #[tokio::test]
+    async fn levels_of_detail_report_their_error_and_bound_zero_is_exact() {
+        // Walls of 16 x 16 quads: flat, so their planes are the walls.
+        let server = TestServer::new();
+        let room = r#"{"objects": [{"name": "room", "material": "plaster",
+            "mesh": {"box_room": {"min": [0, 0, 0], "max": [10, 6, 3], "subdivisions": 16}}}]}"#;
+        let (status, _, body) = server.send(post_json("/v1/scenes?id=room", room)).await;
+        assert_eq!(status, StatusCode::CREATED, "{body}");
+        let rays = json!([
+            { "origin": [2, 3, 1.5], "direction": [1, 0.1, 0.05] },
+            { "origin": [2, 3, 1.5], "direction": [0.3, 1, 0.0] },
+        ]);
+        let ask = |lod: serde_json::Value| {
+            let body = json!({ "rays": rays, "lod": lod }).to_string();
+            server.send(post_json("/v1/scenes/room/rays", &body))
+        };
+        let (status, _, exact) = server
+            .send(post_json(
+                "/v1/scenes/room/rays",
+                &json!({ "rays": rays }).to_string(),
+            ))
+            .await;
+        assert_eq!(status, StatusCode::OK);
+        assert!(exact["hits"][0].get("lod_error_m").is_none(), "{exact}");
+        // Bound 0: the exact hits, each saying it took no error.
+        let (status, _, zero) = ask(json!({ "max_error_m": 0 })).await;
+        assert_eq!(status, StatusCode::OK, "{zero}");
+        for (z, e) in zero["hits"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(exact["hits"].as_array().unwrap())
+        {
+            assert_eq!(z["t"], e["t"]);
+            assert_eq!(z["triangle"], e["triangle"]);
+            assert_eq!(z["lod_error_m"], 0.0);
+        }
+        // A coarse bound meets the wall's plane: the same distance, within
+        // the error it reports.
+        let (status, _, coarse) = ask(json!({ "max_error_m": 2, "cone_angle": 1 })).await;
+        assert_eq!(status, StatusCode::OK, "{coarse}");
+        for (c, e) in coarse["hits"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(exact["hits"].as_array().unwrap())
+        {
+            let error = c["lod_error_m"].as_f64().unwrap();
+            assert!(error > 0.0 && error < 2.0, "{c}");
+            let moved = (c["t"].as_f64().unwrap() - e["t"].as_f64().unwrap()).abs();
+            assert!(moved <= 1e-3, "{c} against {e}");
+        }
+    }
+
+    #[tokio::test]
+    async fn bad_levels_of_detail_are_422_problems() {
+        let server = TestServer::new();
+        let ray = json!([{ "origin": [2, 3, 1.5], "direction": [1, 0, 0] }]);
+        for (lod, mode) in [
+            (json!({ "max_error_m": -1 }), "closest"),
+            (json!({ "max_error_m": 0.1, "cone_angle": 2 }), "closest"),
+            (json!({ "cone_spread_m": -0.5 }), "closest"),
+            (json!({ "max_error_m": 0.1 }), "any"),
+        ] {
+            let body = json!({ "rays": ray, "lod": lod, "mode": mode }).to_string();
+            let (status, content_type, problem) = server.send(post_json(SHOEBOX_RAYS, &body)).await;
+            assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{lod}: {problem}");
+            assert_eq!(content_type, "application/problem+json");
+            assert!(
+                problem["detail"].as_str().unwrap().contains("lod"),
+                "{problem}"
+            );
+        }
     }
 
     #[tokio::test]
