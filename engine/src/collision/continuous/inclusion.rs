@@ -72,13 +72,19 @@ type Domain = [[f64; 2]; 3];
 
 /// The arithmetic corners are evaluated in: f64, or double-double where
 /// f64 cannot decide.
-trait Real: Copy + PartialOrd + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
+trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
     /// Bound on the relative error of one operation: 2⁻⁵³ for f64; for
     /// double-double, Joldes, Muller and Popescu (2017) bound addition by
     /// 3u² + 13u³ and multiplication by 5u², rounded up here to 8u².
     const UNIT: f64;
     fn of(x: f64) -> Self;
     fn abs(self) -> Self;
+    /// `self > other`; false where either is NaN.
+    fn gt(self, other: Self) -> bool;
+    /// `self < other`; false where either is NaN.
+    fn lt(self, other: Self) -> bool {
+        other.gt(self)
+    }
 }
 
 impl Real for f64 {
@@ -89,6 +95,10 @@ impl Real for f64 {
     fn abs(self) -> Self {
         f64::abs(self)
     }
+    #[inline]
+    fn gt(self, other: Self) -> bool {
+        self > other
+    }
 }
 
 impl Real for TwoFloat {
@@ -98,6 +108,15 @@ impl Real for TwoFloat {
     }
     fn abs(self) -> Self {
         TwoFloat::abs(&self)
+    }
+    /// By the words, high first: the arithmetic's results are normalised
+    /// (the high word is the sum rounded), where that is the numbers'
+    /// order. `TwoFloat`'s own comparison checks both operands' validity
+    /// first, which calls `exp2`: 8% of the sample queries' time.
+    #[inline]
+    fn gt(self, other: Self) -> bool {
+        let (a, b) = ((self.hi(), self.lo()), (other.hi(), other.lo()));
+        a.0 > b.0 || (a.0 == b.0 && a.1 > b.1)
     }
 }
 
@@ -239,9 +258,9 @@ fn separates<T: Real>(values: &[V<T>; 8], n: DVec3, rounding: DVec3) -> Option<b
         let size = v[0].abs() * T::of(an.x) + v[1].abs() * T::of(an.y) + v[2].abs() * T::of(an.z);
         // Three products and two sums, each within UNIT of its result.
         let margin = T::of(shift) + size * T::of(6.0 * T::UNIT);
-        above &= dot > zero;
-        below &= dot < zero;
-        clear &= dot > margin || zero - dot > margin;
+        above &= dot.gt(zero);
+        below &= dot.lt(zero);
+        clear &= dot.gt(margin) || (zero - dot).gt(margin);
     }
     (above || below).then_some(clear)
 }
@@ -254,18 +273,18 @@ fn separates_on_an_axis<T: Real>(values: &[V<T>; 8], rounding: DVec3) -> Option<
     for axis in 0..3 {
         let (mut lo, mut hi) = (values[0][axis], values[0][axis]);
         for v in &values[1..] {
-            if v[axis] < lo {
+            if v[axis].lt(lo) {
                 lo = v[axis];
             }
-            if v[axis] > hi {
+            if v[axis].gt(hi) {
                 hi = v[axis];
             }
         }
         let r = T::of(rounding[axis]);
-        if lo > r || zero - hi > r {
+        if lo.gt(r) || (zero - hi).gt(r) {
             return Some(true);
         }
-        if lo > zero || hi < zero {
+        if lo.gt(zero) || hi.lt(zero) {
             verdict = Some(false);
         }
     }
