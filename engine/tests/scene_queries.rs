@@ -326,3 +326,73 @@ fn the_pair_walk_finds_every_overlapping_pair_of_triangles() {
         .overlapping_leaves(0, 9, |_, _| ControlFlow::Continue(()))
         .is_err());
 }
+
+#[test]
+fn levels_of_detail_answer_in_each_object_s_frame_and_follow_its_deformation() {
+    use frusta_engine::bvh::lod::{Cone, LodOptions};
+    let scene = test_scene();
+    let mut bvh = SceneBvh::build(&scene, &BuildOptions::default());
+    let mut rng = Rng(7);
+    // A query that allows no plane walks every object's hook: the exact
+    // hits, whatever the transforms.
+    let none = LodOptions {
+        max_error: f32::INFINITY,
+        cone: Some(Cone {
+            spread: 0.0,
+            angle: 0.0,
+        }),
+    };
+    let rays: Vec<Ray> = (0..5_000)
+        .map(|_| Ray::new(rng.direction() * rng.range(0.0, 9.0), rng.direction()))
+        .collect();
+    let exact = bvh.closest_hits(&rays);
+    for ((got, want), ray) in bvh
+        .closest_hits_lod(&rays, &none)
+        .iter()
+        .zip(&exact)
+        .zip(&rays)
+    {
+        assert_eq!(got.map(|(h, e)| (h, e)), want.map(|h| (h, 0.0)), "{ray:?}");
+    }
+    // Rays converging on the turned, moved ball from 6 m: coarse planes
+    // meet it within their error, in the world frame.
+    let centre = Vec3::new(3.0, 1.0, -2.0);
+    let coarse = LodOptions {
+        max_error: 0.5,
+        cone: Some(Cone {
+            spread: 0.0,
+            angle: 0.1,
+        }),
+    };
+    let at_ball: Vec<Ray> = (0..2_000)
+        .map(|_| {
+            let d = rng.direction();
+            Ray::new(centre + d * 6.0, -d)
+        })
+        .collect();
+    let check = |bvh: &SceneBvh, radius: f32| {
+        let mut planes = 0;
+        for (ray, hit) in at_ball.iter().zip(bvh.closest_hits_lod(&at_ball, &coarse)) {
+            let (hit, error) = hit.expect("every ray meets the ball");
+            assert_eq!(hit.object, 1);
+            let exact = bvh.closest_hit(ray).unwrap();
+            assert!(
+                (hit.t - exact.t).abs() <= error.max(1e-5),
+                "{ray:?}: {hit:?} {error}"
+            );
+            assert!(
+                (hit.t - (6.0 - radius)).abs() <= error + 0.05 * radius,
+                "{hit:?}"
+            );
+            planes += usize::from(error > 0.0);
+        }
+        assert!(planes > 1_000, "{planes} rays met planes");
+    };
+    check(&bvh, 1.0);
+    // Grown in place by a refit: the planes are fitted again, not reused.
+    let ball = &scene.objects[1];
+    let grown = placed(&ball.mesh, Quat::IDENTITY, 1.5, Vec3::ZERO);
+    bvh.update_mesh(1, &grown, &ball.materials, DEFAULT_REBUILD_THRESHOLD)
+        .unwrap();
+    check(&bvh, 1.5);
+}

@@ -137,6 +137,8 @@ impl SceneBvh {
             let mut best: Option<(u32, lod::LodHit)> = None;
             self.walk_objects(&RayTest::new(ray), ray.t_max, |object, inst, t_max| {
                 let local = local(inst, ray, *t_max);
+                // The planes were fitted to these very trees above, so the
+                // staleness error cannot arise here.
                 if let Ok(Some(hit)) =
                     lod::closest_hit(inst.bvh(), &lods[object as usize], &local, options)
                 {
