@@ -599,3 +599,43 @@ fn cache_events(sources: &[Vec3], scene: &AcousticScene, options: &SimulationOpt
     }
     high
 }
+
+/// In a room with no scattering the late energy rides on image sources,
+/// each caught by a listener's sphere by chance. Spheres that grow with
+/// the path's length like the rays' tubes catch each about once, so even
+/// a few rays give the late energy of the exact image sources, seed after
+/// seed (within 3 % on these seeds; a fixed sphere sized for a few
+/// crossings per bin was 12 % off on two of them).
+#[test]
+fn few_rays_give_a_specular_rooms_late_energy() {
+    let absorption = 0.1;
+    let scene = shoebox(absorption as f32, 0.0);
+    let window = 0.15..0.45;
+    let late = |echogram: &[(f64, f64)]| -> f64 {
+        echogram
+            .iter()
+            .filter(|e| window.contains(&e.0))
+            .map(|e| e.1)
+            .sum()
+    };
+    for seed in 0..4 {
+        let options = TailOptions {
+            rays: 2048,
+            max_length_s: window.end + 0.05,
+            seed,
+            ..Default::default()
+        };
+        let response = respond(&scene, 4, Tail::Stochastic(options));
+        let images: Vec<(f64, f64)> =
+            image_sources(absorption, response.speed_of_sound_m_s, window.end)
+                .into_iter()
+                .map(|(t, e, _)| (t, e))
+                .collect();
+        within(
+            &format!("seed {seed}: late energy"),
+            late(&echogram(&response)),
+            late(&images),
+            0.05,
+        );
+    }
+}

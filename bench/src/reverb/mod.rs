@@ -52,6 +52,9 @@ pub struct Args {
     /// Length of the tail, s.
     #[arg(long, default_value_t = 2.0)]
     length: f64,
+    /// Seed of the tail's rays.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
     /// Timed runs per scene; the median is reported.
     #[arg(long, default_value_t = 3)]
     rounds: usize,
@@ -199,6 +202,7 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
         tail: Tail::Stochastic(TailOptions {
             rays: args.rays,
             max_length_s: args.length,
+            seed: args.seed,
             ..Default::default()
         }),
         ..Default::default()

@@ -15,7 +15,10 @@
 //! - **receiver spheres**: a ray leg crossing the sphere around a listener
 //!   adds `E ℓ / V` (chord length over sphere volume, the track-length
 //!   estimator of the energy density), which is what catches specular
-//!   energy, including that of rooms without any scattering.
+//!   energy, including that of rooms without any scattering. The sphere
+//!   grows with the path's length like the ray tube a ray of the lattice
+//!   stands for, up to the listener's clearance, so that every image
+//!   source is caught about once whatever the ray count.
 //!
 //! The ray then goes on diffusely (Lambert), specularly, or through the
 //! surface (its transmission), picked at random in proportion to the
@@ -71,8 +74,10 @@ pub struct TailOptions {
     pub max_length_s: f64,
     /// Seed of the rays and of the tail's fine structure.
     pub seed: u64,
-    /// Radius of the sphere around each listener that detects rays, m;
-    /// `None` sizes it from the room's volume and the ray count.
+    /// Radius of the sphere around each listener that detects rays, m,
+    /// fixed; `None` sizes the smallest from the room's volume and the ray
+    /// count and lets it grow with the path's length up to the listener's
+    /// clearance from every surface (see `walk::Receivers`).
     pub receiver_radius_m: Option<f64>,
 }
 
@@ -238,7 +243,7 @@ pub(crate) fn trace_tail(
     let start = Instant::now();
     let room = Room::of(scene, input);
     let walk = Walk::new(scene, source, input, room.free_path);
-    let receivers = Receivers::new(scene, listeners, input, room.radius);
+    let receivers = Receivers::new(scene, listeners, input, room.radius, room.sphere_reach());
     let chunks: Vec<Tally> = chunk_ranges(input.options.rays)
         .into_par_iter()
         .map(|rays| {
@@ -322,7 +327,7 @@ impl TailRecord {
     ) -> Result<TracedTail> {
         let start = Instant::now();
         let room = Room::of(scene, input);
-        let receivers = Receivers::new(scene, listeners, input, room.radius);
+        let receivers = Receivers::new(scene, listeners, input, room.radius, room.sphere_reach());
         let chunks: Vec<Tally> = self
             .chunks
             .par_iter()
@@ -350,6 +355,12 @@ struct Room {
 }
 
 impl Room {
+    /// The largest a listener's sphere may grow: half a mean free path,
+    /// so it stays small beside the room.
+    fn sphere_reach(&self) -> f64 {
+        0.5 * self.free_path
+    }
+
     fn of(scene: &AcousticScene, input: &TailInput) -> Self {
         let volume = room_volume(scene);
         let free_path = mean_free_path(scene, volume);

@@ -408,27 +408,65 @@ impl<'a> Walk<'a> {
 }
 
 /// The listeners a walk's events are handed to, and what they count.
+///
+/// A leg counts at a listener's sphere by the track-length estimator,
+/// `E ℓ / V`: unbiased for any radius over which the energy density is
+/// smooth, as long as the sphere stays clear of every surface (a part
+/// beyond one would never be crossed, and its volume would be counted
+/// empty). A fixed radius sized for a few crossings per bin does not get
+/// better with more rays: it shrinks as they grow, and in a room that
+/// barely scatters the late energy rides on a few image sources, each
+/// caught by chance. So the radius grows with the path's length `L`: a
+/// ray of the lattice of `N` stands for the solid angle `4π / N`, a tube
+/// of cross-section `4π L² / N` from its image source, and a sphere of
+/// that cross-section (radius `2L / √N`) is crossed by about one ray per
+/// image source, whatever `N`. It grows from the radius sized for a few
+/// crossings per bin to the listener's clearance (at most half a mean
+/// free path).
 pub(super) struct Receivers<'a> {
     scene: &'a AcousticScene,
     listeners: &'a [DVec3],
+    /// The smallest sphere's radius, also the rain's nearest distance.
     radius: f64,
-    sphere_volume: f64,
+    /// Per listener, the largest sphere's radius.
+    max_radius: Vec<f64>,
+    /// Radius per metre of path: `2 / √N`, or 0 for a fixed radius.
+    growth: f64,
     speed: f64,
     max_length_m: f64,
 }
 
 impl<'a> Receivers<'a> {
+    /// Spheres of `radius` growing to each listener's clearance (within
+    /// `reach`), or of `radius` alone when the options fix it.
     pub fn new(
         scene: &'a AcousticScene,
         listeners: &'a [DVec3],
         input: &TailInput,
         radius: f64,
+        reach: f64,
     ) -> Self {
+        let fixed = input.options.receiver_radius_m.is_some();
+        let max_radius = listeners
+            .iter()
+            .map(|&l| {
+                if fixed {
+                    radius
+                } else {
+                    radius.max(scene.surfaces().clearance(scene.bvh(), l, reach))
+                }
+            })
+            .collect();
         Self {
             scene,
             listeners,
             radius,
-            sphere_volume: 4.0 / 3.0 * PI * radius.powi(3),
+            max_radius,
+            growth: if fixed {
+                0.0
+            } else {
+                2.0 / f64::from(input.options.rays).sqrt()
+            },
             speed: input.speed_of_sound,
             max_length_m: input.options.max_length_s * input.speed_of_sound,
         }
@@ -454,7 +492,8 @@ impl<'a> Receivers<'a> {
     }
 
     /// The track-length estimate of the leg `origin + dir · [0, leg]`,
-    /// `travelled` metres from the source, at every listener's sphere.
+    /// `travelled` metres from the source, at every listener's sphere
+    /// (its radius set by the path's length where the leg passes nearest).
     fn cross_spheres(
         &self,
         origin: DVec3,
@@ -464,11 +503,17 @@ impl<'a> Receivers<'a> {
         energy: &Energy,
         tally: &mut Tally,
     ) {
-        let r2 = self.radius * self.radius;
-        for (l, &listener) in self.listeners.iter().enumerate() {
+        for (l, (&listener, &max_radius)) in self.listeners.iter().zip(&self.max_radius).enumerate()
+        {
             let to = listener - origin;
             let along = to.dot(dir);
             let miss2 = to.length_squared() - along * along;
+            if miss2 >= max_radius * max_radius {
+                continue;
+            }
+            let path = travelled + along.clamp(0.0, leg);
+            let r = (self.growth * path).clamp(self.radius, max_radius);
+            let r2 = r * r;
             if miss2 >= r2 {
                 continue;
             }
@@ -477,8 +522,8 @@ impl<'a> Receivers<'a> {
             if chord <= 0.0 {
                 continue;
             }
-            let time = (travelled + along.clamp(0.0, leg)) / self.speed;
-            tally.deposit(l, time, energy, chord / self.sphere_volume);
+            let volume = 4.0 / 3.0 * PI * r * r2;
+            tally.deposit(l, path / self.speed, energy, chord / volume);
         }
     }
 
