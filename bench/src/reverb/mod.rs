@@ -131,6 +131,7 @@ struct Run {
     paths: usize,
     trace_ms: f64,
     tail_ms: f64,
+    diffraction_ms: f64,
     total_ms: f64,
     threads: usize,
     /// pyroomacoustics' `compute_rir` (image sources, ray tracing,
@@ -215,7 +216,12 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
             .map_err(|e| e.to_string())?
             .remove(0);
         let tail = r.stats.tail.as_ref().map_or(0.0, |t| t.trace_ms);
-        timings.push((r.stats.trace_ms, tail, r.stats.total_ms));
+        timings.push((
+            r.stats.trace_ms,
+            tail,
+            r.stats.diffraction_ms,
+            r.stats.total_ms,
+        ));
         last = Some(r);
     }
     let r = last.expect("one round at least");
@@ -292,7 +298,8 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
         paths: r.paths.len(),
         trace_ms: median(timings.iter().map(|t| t.0).collect()),
         tail_ms: median(timings.iter().map(|t| t.1).collect()),
-        total_ms: median(timings.iter().map(|t| t.2).collect()),
+        diffraction_ms: median(timings.iter().map(|t| t.2).collect()),
+        total_ms: median(timings.iter().map(|t| t.3).collect()),
         threads: r.stats.threads,
         pyroomacoustics_ms: peer.as_ref().map(|p| p.ms),
         pyroomacoustics_threads: peer.as_ref().map(|p| p.threads),
@@ -369,7 +376,7 @@ fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
     for run in runs {
         out += &format!(
             "\n{}: {} triangles, {} cells, {:.0} m³, {} paths; exact part {:.1} ms, tail {:.1} ms, \
-             total {:.1} ms ({} threads)\n",
+             diffraction {:.1} ms, total {:.1} ms ({} threads)\n",
             run.scene,
             run.triangles,
             run.cells,
@@ -377,6 +384,7 @@ fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
             run.paths,
             run.trace_ms,
             run.tail_ms,
+            run.diffraction_ms,
             run.total_ms,
             run.threads
         );

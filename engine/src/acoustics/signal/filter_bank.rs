@@ -141,7 +141,7 @@ impl OctaveFilterBank {
         if sample_rate == 0 {
             return Err(Error::InvalidAudio("sample rate must be positive".into()));
         }
-        let fft_len = (len + tail_samples(sample_rate)).next_power_of_two();
+        let fft_len = transform_len(len + tail_samples(sample_rate));
         let plan = plan(fft_len, sample_rate);
         let scratch_len = plan
             .forward
@@ -180,6 +180,14 @@ impl OctaveFilterBank {
         }
     }
 
+    /// Adds the bands `other` (of the same length and rate) has summed,
+    /// so that halves of the bands can be filtered on two threads.
+    pub(crate) fn merge(&mut self, other: &Self) {
+        for (sum, &o) in self.sum.iter_mut().zip(&other.sum) {
+            *sum += o;
+        }
+    }
+
     /// The filtered, summed signal.
     pub(crate) fn finish(mut self) -> Vec<f32> {
         // A real signal's spectrum has no imaginary part at DC or Nyquist;
@@ -197,6 +205,28 @@ impl OctaveFilterBank {
             .map(|&s| (s * scale) as f32)
             .collect()
     }
+}
+
+/// The shortest even length of at least `n` whose only prime factors are
+/// 2, 3 and 5: the transforms run as fast per point at these lengths as at
+/// powers of two, and the next power of two is up to twice as long (a 3 s
+/// response at 48 kHz: 160,000 points instead of 262,144).
+fn transform_len(n: usize) -> usize {
+    let mut best = n.max(2).next_power_of_two();
+    let mut p5 = 2;
+    while p5 < best {
+        let mut p35 = p5;
+        while p35 < best {
+            let mut len = p35;
+            while len < n {
+                len *= 2;
+            }
+            best = best.min(len);
+            p35 *= 3;
+        }
+        p5 *= 5;
+    }
+    best
 }
 
 /// The filter tail [`TAIL_S`] in samples at `sample_rate`.
@@ -235,6 +265,23 @@ mod tests {
     use super::*;
 
     const RATE: u32 = 48_000;
+
+    #[test]
+    fn transform_lengths_are_the_next_even_5_smooth_numbers() {
+        let smooth = |mut m: usize| {
+            for p in [2, 3, 5] {
+                while m % p == 0 {
+                    m /= p;
+                }
+            }
+            m == 1
+        };
+        for n in (0..3000).chain([153_600, 1_000_001]) {
+            let want = (n.max(2)..).find(|&m| m % 2 == 0 && smooth(m)).unwrap();
+            assert_eq!(transform_len(n), want, "n = {n}");
+        }
+        assert_eq!(transform_len(153_600), 153_600);
+    }
 
     fn energy(signal: &[f32]) -> f64 {
         signal.iter().map(|&s| f64::from(s).powi(2)).sum()

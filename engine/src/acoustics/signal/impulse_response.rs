@@ -254,39 +254,60 @@ fn render_channel(
     len: usize,
     sample_rate: u32,
 ) -> Result<Vec<f32>> {
-    let kernels = kernel_table();
-    let mut bank = OctaveFilterBank::new(len, sample_rate)?;
-    for &band in bands {
-        let signal = bank.input();
-        for placement in placements {
-            let gain = f64::from(placement.gains[band]);
-            if gain == 0.0 {
-                continue;
-            }
-            let whole = placement.position.floor();
-            let phase = ((placement.position - whole) * KERNEL_PHASES as f64).round() as usize;
-            let kernel = &kernels[phase * KERNEL_TAPS..(phase + 1) * KERNEL_TAPS];
-            // Tap j lands on sample whole + j − (KERNEL_HALF − 1).
-            let first = whole as i64 - (KERNEL_HALF as i64 - 1);
-            let skip = (-first).max(0) as usize;
-            let start = first.max(0) as usize;
-            if skip >= KERNEL_TAPS || start >= len {
-                continue;
-            }
-            let taps = &kernel[skip..];
-            let end = (start + taps.len()).min(len);
-            for (out, &tap) in signal[start..end].iter_mut().zip(taps) {
-                *out += gain * tap;
-            }
+    // Two halves of the bands on two threads (the transforms are most of
+    // the work); the halves are fixed, so the sum is the same on any
+    // thread count.
+    let (low, high) = bands.split_at(bands.len() / 2);
+    let render = |bands: &[usize]| -> Result<OctaveFilterBank> {
+        let mut bank = OctaveFilterBank::new(len, sample_rate)?;
+        for &band in bands {
+            render_band(bank.input(), placements, diracs, band);
+            bank.add(band);
         }
-        for &(i, gains) in diracs {
-            if let Some(out) = signal.get_mut(i) {
-                *out += f64::from(gains[band]);
-            }
-        }
-        bank.add(band);
-    }
+        Ok(bank)
+    };
+    let (low, high) = rayon::join(|| render(low), || render(high));
+    let mut bank = low?;
+    bank.merge(&high?);
     Ok(bank.finish())
+}
+
+/// Writes band `band` of the arrivals (band-limited by the fractional-delay
+/// kernels) and of the tail's Dirac sequence into `signal`.
+fn render_band(
+    signal: &mut [f64],
+    placements: &[Placement],
+    diracs: &[(usize, Bands)],
+    band: usize,
+) {
+    let kernels = kernel_table();
+    let len = signal.len();
+    for placement in placements {
+        let gain = f64::from(placement.gains[band]);
+        if gain == 0.0 {
+            continue;
+        }
+        let whole = placement.position.floor();
+        let phase = ((placement.position - whole) * KERNEL_PHASES as f64).round() as usize;
+        let kernel = &kernels[phase * KERNEL_TAPS..(phase + 1) * KERNEL_TAPS];
+        // Tap j lands on sample whole + j − (KERNEL_HALF − 1).
+        let first = whole as i64 - (KERNEL_HALF as i64 - 1);
+        let skip = (-first).max(0) as usize;
+        let start = first.max(0) as usize;
+        if skip >= KERNEL_TAPS || start >= len {
+            continue;
+        }
+        let taps = &kernel[skip..];
+        let end = (start + taps.len()).min(len);
+        for (out, &tap) in signal[start..end].iter_mut().zip(taps) {
+            *out += gain * tap;
+        }
+    }
+    for &(i, gains) in diracs {
+        if let Some(out) = signal.get_mut(i) {
+            *out += f64::from(gains[band]);
+        }
+    }
 }
 
 /// Hann-windowed sinc kernels for fractional delays 0, 1/P, …, 1 sample
