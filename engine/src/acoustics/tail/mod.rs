@@ -243,7 +243,7 @@ pub(crate) fn trace_tail(
     let start = Instant::now();
     let room = Room::of(scene, input);
     let walk = Walk::new(scene, source, input, room.free_path);
-    let receivers = Receivers::new(scene, listeners, input, room.radius, room.sphere_reach());
+    let receivers = Receivers::new(scene, listeners, input, &room);
     let chunks: Vec<Tally> = chunk_ranges(input.options.rays)
         .into_par_iter()
         .map(|rays| {
@@ -327,7 +327,7 @@ impl TailRecord {
     ) -> Result<TracedTail> {
         let start = Instant::now();
         let room = Room::of(scene, input);
-        let receivers = Receivers::new(scene, listeners, input, room.radius, room.sphere_reach());
+        let receivers = Receivers::new(scene, listeners, input, &room);
         let chunks: Vec<Tally> = self
             .chunks
             .par_iter()
@@ -350,6 +350,9 @@ impl TailRecord {
 /// What a tail's estimators are sized by.
 struct Room {
     volume: f64,
+    /// Whether the surfaces enclose the volume (else it is the scene's
+    /// box, and the free path means little).
+    closed: bool,
     free_path: f64,
     radius: f64,
 }
@@ -362,7 +365,7 @@ impl Room {
     }
 
     fn of(scene: &AcousticScene, input: &TailInput) -> Self {
-        let volume = room_volume(scene);
+        let (volume, closed) = room_volume(scene);
         let free_path = mean_free_path(scene, volume);
         let radius = input.options.receiver_radius_m.unwrap_or_else(|| {
             receiver_radius(
@@ -375,6 +378,7 @@ impl Room {
         });
         Self {
             volume,
+            closed,
             free_path,
             radius,
         }
@@ -449,15 +453,16 @@ fn histogram(
 }
 
 /// The volume sound fills: what the surfaces enclose when they are closed,
-/// bounded by the scene's box (an open scene's signed sum means nothing).
-fn room_volume(scene: &AcousticScene) -> f64 {
+/// bounded by the scene's box (an open scene's signed sum means nothing);
+/// and whether they are.
+fn room_volume(scene: &AcousticScene) -> (f64, bool) {
     let size = scene.bvh().bounds().extent().as_dvec3();
     let boxed = (size.x * size.y * size.z).max(size.max_element().powi(3) * 1e-6);
     let (_, enclosed) = scene.surfaces().area_and_volume();
     if enclosed > 1e-6 * boxed {
-        enclosed.min(boxed)
+        (enclosed.min(boxed), true)
     } else {
-        boxed
+        (boxed, false)
     }
 }
 

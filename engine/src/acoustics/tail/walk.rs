@@ -8,7 +8,7 @@ use glam::{DQuat, DVec3, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{TailInput, BIN_S};
+use super::{Room, TailInput, BIN_S};
 use crate::acoustics::AcousticScene;
 use crate::deadline::{Deadline, CLOCK_PERIOD};
 use crate::geometry::Ray;
@@ -432,20 +432,24 @@ pub(super) struct Receivers<'a> {
     max_radius: Vec<f64>,
     /// Radius per metre of path: `2 / √N`, or 0 for a fixed radius.
     growth: f64,
+    /// Rain of a smaller Lambert weight than this sends its shadow ray
+    /// only by roulette (see [`Self::rain`]); 0 in an open scene, whose
+    /// free path says nothing of the distances rain travels.
+    rain_weight: f64,
     speed: f64,
     max_length_m: f64,
 }
 
 impl<'a> Receivers<'a> {
-    /// Spheres of `radius` growing to each listener's clearance (within
-    /// `reach`), or of `radius` alone when the options fix it.
+    /// Spheres of the room's radius growing to each listener's clearance
+    /// (within its reach), or of the radius alone when the options fix it.
     pub fn new(
         scene: &'a AcousticScene,
         listeners: &'a [DVec3],
         input: &TailInput,
-        radius: f64,
-        reach: f64,
+        room: &Room,
     ) -> Self {
+        let (radius, reach) = (room.radius, room.sphere_reach());
         let fixed = input.options.receiver_radius_m.is_some();
         let max_radius = listeners
             .iter()
@@ -466,6 +470,11 @@ impl<'a> Receivers<'a> {
                 0.0
             } else {
                 2.0 / f64::from(input.options.rays).sqrt()
+            },
+            rain_weight: if room.closed {
+                1.0 / (PI * room.free_path.max(radius).powi(2))
+            } else {
+                0.0
             },
             speed: input.speed_of_sound,
             max_length_m: input.options.max_length_s * input.speed_of_sound,
@@ -531,6 +540,15 @@ impl<'a> Receivers<'a> {
     /// to every listener in front of it that it can see, by Lambert's law.
     /// Closer than the sphere radius, the distance is held at the radius:
     /// the sphere is the listener's size, and the variance stays bounded.
+    ///
+    /// The shadow rays are most of a replayed tail's work, and most go to
+    /// far points that add little (the rain of every octave of distance
+    /// adds about as much, and there are more points the farther). So rain
+    /// weighing less than [`Self::rain_weight`] (a point a mean free path
+    /// away, head on) is sent only by roulette, with a chance of its share
+    /// of that weight, and counted divided by it: unbiased, and the far
+    /// half of a hall's rain costs a fraction of its shadow rays. The draw
+    /// hashes the event, so a replay draws what the trace drew.
     fn rain(
         &self,
         point: DVec3,
@@ -546,15 +564,39 @@ impl<'a> Receivers<'a> {
             if cos.is_nan() || cos <= 0.0 || travelled + distance > self.max_length_m {
                 continue;
             }
+            let weight = cos / (PI * distance.max(self.radius).powi(2));
+            let chance = (weight / self.rain_weight).min(1.0);
+            if chance < 1.0 && unit_hash([point.x, point.y, point.z, travelled], l) >= chance {
+                continue;
+            }
             tally.shadow_rays += 1;
             let shadow = Ray::segment(point.as_vec3(), listener.as_vec3());
             if self.scene.bvh().any_hit(&shadow) {
                 continue;
             }
-            let weight = cos / (PI * distance.max(self.radius).powi(2));
-            tally.deposit(l, (travelled + distance) / self.speed, energy, weight);
+            tally.deposit(
+                l,
+                (travelled + distance) / self.speed,
+                energy,
+                weight / chance,
+            );
         }
     }
+}
+
+/// A number in `[0, 1)` that looks uniform, from the bits of `values` and
+/// `index` (SplitMix64's finaliser, Steele et al. 2014, over each word).
+fn unit_hash(values: [f64; 4], index: usize) -> f64 {
+    let mix = |mut z: u64| {
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    let mut h = mix(index as u64 ^ 0x9e37_79b9_7f4a_7c15);
+    for v in values {
+        h = mix(h ^ v.to_bits()).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    }
+    (h >> 11) as f64 / (1u64 << 53) as f64
 }
 
 /// A rotation uniform over all rotations (Shoemake 1992).
