@@ -251,7 +251,7 @@ pub(crate) fn trace_tail(
             // Events are rounded as a kept walk keeps them, so a stream's
             // replayed tail is this one, to the bit.
             tally.reflections = walk.rays(rays, deadline, &mut |e| {
-                receivers.take(&walk::Event::from(&walk::Recorded::from(&e)), &mut tally)
+                receivers.take(&walk::Recorded::from(&e), &mut tally)
             })?;
             Ok(tally)
         })
@@ -335,7 +335,7 @@ impl TailRecord {
                 deadline.check()?;
                 let mut tally = Tally::new(listeners.len());
                 for e in events {
-                    receivers.take(&walk::Event::from(e), &mut tally);
+                    receivers.take(e, &mut tally);
                 }
                 Ok(tally)
             })

@@ -65,14 +65,14 @@ impl Tally {
     }
 
     /// Adds `energy · weight` at `listener`, arriving at `time_s`.
-    fn deposit(&mut self, listener: usize, time_s: f64, energy: &Energy, weight: f64) {
+    fn deposit(&mut self, listener: usize, time_s: f64, energy: &[f32; BAND_COUNT], weight: f64) {
         let bin = (time_s / BIN_S) as usize;
         let bins = &mut self.energy[listener];
         if bins.len() <= bin {
             bins.resize(bin + 1, [0.0; BAND_COUNT]);
         }
-        for (slot, e) in bins[bin].iter_mut().zip(energy) {
-            *slot += e * weight;
+        for (slot, &e) in bins[bin].iter_mut().zip(energy) {
+            *slot += f64::from(e) * weight;
         }
     }
 }
@@ -144,29 +144,6 @@ impl From<&Event> for Recorded {
                 travelled: *travelled as f32,
                 energy: energy(en),
             },
-        }
-    }
-}
-
-impl From<&Recorded> for Event {
-    fn from(r: &Recorded) -> Self {
-        let energy = r.energy.map(f64::from);
-        let travelled = f64::from(r.travelled);
-        if r.leg >= 0.0 {
-            Event::Leg {
-                origin: r.at.as_dvec3(),
-                dir: r.towards.as_dvec3(),
-                leg: f64::from(r.leg),
-                travelled,
-                energy,
-            }
-        } else {
-            Event::Rain {
-                point: r.at.as_dvec3(),
-                facing: r.towards.as_dvec3(),
-                travelled,
-                energy,
-            }
         }
     }
 }
@@ -481,22 +458,16 @@ impl<'a> Receivers<'a> {
         }
     }
 
-    /// Counts one event at every listener.
-    pub fn take(&self, event: &Event, tally: &mut Tally) {
-        match *event {
-            Event::Leg {
-                origin,
-                dir,
-                leg,
-                travelled,
-                ref energy,
-            } => self.cross_spheres(origin, dir, leg, travelled, energy, tally),
-            Event::Rain {
-                point,
-                facing,
-                travelled,
-                ref energy,
-            } => self.rain(point, facing, travelled, energy, tally),
+    /// Counts one event at every listener; its energies are widened only
+    /// where they are counted (most legs miss every sphere).
+    pub fn take(&self, event: &Recorded, tally: &mut Tally) {
+        let (at, towards) = (event.at.as_dvec3(), event.towards.as_dvec3());
+        let travelled = f64::from(event.travelled);
+        if event.leg >= 0.0 {
+            let leg = f64::from(event.leg);
+            self.cross_spheres(at, towards, leg, travelled, &event.energy, tally);
+        } else {
+            self.rain(at, towards, travelled, &event.energy, tally);
         }
     }
 
@@ -509,7 +480,7 @@ impl<'a> Receivers<'a> {
         dir: DVec3,
         leg: f64,
         travelled: f64,
-        energy: &Energy,
+        energy: &[f32; BAND_COUNT],
         tally: &mut Tally,
     ) {
         for (l, (&listener, &max_radius)) in self.listeners.iter().zip(&self.max_radius).enumerate()
@@ -554,7 +525,7 @@ impl<'a> Receivers<'a> {
         point: DVec3,
         facing: DVec3,
         travelled: f64,
-        energy: &Energy,
+        energy: &[f32; BAND_COUNT],
         tally: &mut Tally,
     ) {
         for (l, &listener) in self.listeners.iter().enumerate() {
