@@ -123,7 +123,9 @@ pub struct TailStatsOut {
     pub reflections: u64,
     /// Shadow rays sent from diffuse reflections to the listeners.
     pub shadow_rays: u64,
-    /// Radius of the sphere around each listener that counted rays, m.
+    /// Radius of the sphere around each listener that counted rays, m: the
+    /// smallest, unless the request fixed it (it grows with the path's
+    /// length up to the listener's clearance).
     pub receiver_radius_m: f64,
     /// The room volume the sphere and the tail's echo density were sized by, m³.
     pub volume_m3: f64,

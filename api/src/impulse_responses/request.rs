@@ -242,7 +242,7 @@ fn tail_schema() -> RefOr<Schema> {
                     Type::Null,
                 ]))
                 .description(Some(
-                    "Radius of the sphere around each listener that counts rays, m; null sizes it from the room",
+                    "Radius of the sphere around each listener that counts rays, m, fixed; null sizes the smallest from the room and grows it with the path's length up to the listener's clearance from every surface",
                 ))
                 .exclusive_minimum(Some(0.0)),
         )
