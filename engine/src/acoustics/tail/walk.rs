@@ -148,12 +148,21 @@ impl From<&Event> for Recorded {
     }
 }
 
-/// A material's energy fractions per band, as the walk reads them at
-/// every hit (converted once per trace, not per hit).
+/// A material's energy fractions per band, and what the walk derives from
+/// them at every hit, worked out once per trace for the active bands.
 struct Surface {
     reflected: Energy,
     scattered: Energy,
     transmitted: Energy,
+    /// Whether any band passes through.
+    transmits: bool,
+    /// The chance a reflection is diffuse: the scattering's mean over the
+    /// active bands.
+    p_diffuse: f64,
+    /// The re-weighting of each band's energy on a diffuse reflection,
+    /// `s / p_diffuse`, and on a specular one, `(1 − s) / (1 − p_diffuse)`.
+    diffuse_share: Energy,
+    specular_share: Energy,
 }
 
 impl Surface {
@@ -162,14 +171,42 @@ impl Surface {
         reflected: [1.0; BAND_COUNT],
         scattered: [0.0; BAND_COUNT],
         transmitted: [0.0; BAND_COUNT],
+        transmits: false,
+        p_diffuse: 0.0,
+        diffuse_share: [0.0; BAND_COUNT],
+        specular_share: [1.0; BAND_COUNT],
     };
 
-    fn of(m: &crate::scene::Material) -> Self {
+    fn of(m: &crate::scene::Material, active: &[bool; BAND_COUNT]) -> Self {
+        let scattered = m.scattering.map(f64::from);
+        let transmitted = m.transmission.map(f64::from);
+        let p_diffuse = mean(active, &scattered, &active.map(f64::from));
         Self {
             reflected: m.absorption.map(|a| 1.0 - f64::from(a)),
-            scattered: m.scattering.map(f64::from),
-            transmitted: m.transmission.map(f64::from),
+            scattered,
+            transmitted,
+            transmits: transmitted.iter().any(|&t| t > 0.0),
+            p_diffuse,
+            diffuse_share: scattered.map(|s| s / p_diffuse),
+            specular_share: scattered.map(|s| (1.0 - s) / (1.0 - p_diffuse)),
         }
+    }
+}
+
+/// The mean over active bands of `fraction`, weighted by `weights` (0
+/// where they are all 0).
+fn mean(active: &[bool; BAND_COUNT], fraction: &Energy, weights: &Energy) -> f64 {
+    let (mut sum, mut weight) = (0.0, 0.0);
+    for b in 0..BAND_COUNT {
+        if active[b] {
+            sum += fraction[b] * weights[b];
+            weight += weights[b];
+        }
+    }
+    if weight > 0.0 {
+        sum / weight
+    } else {
+        0.0
     }
 }
 
@@ -201,7 +238,11 @@ impl<'a> Walk<'a> {
         let share = 4.0 * PI / f64::from(input.options.rays);
         Self {
             scene,
-            surfaces: scene.materials().iter().map(Surface::of).collect(),
+            surfaces: scene
+                .materials()
+                .iter()
+                .map(|m| Surface::of(m, &input.active_bands))
+                .collect(),
             source,
             rays: input.options.rays as usize,
             rotation: {
@@ -318,12 +359,22 @@ impl<'a> Walk<'a> {
                     energy: diffuse,
                 });
             }
-            let through = self.mean(&surface.transmitted, &energy);
-            let back = self.mean(&surface.reflected, &energy);
-            if through + back <= 0.0 {
-                break;
-            }
-            let p_through = through / (through + back);
+            // Without transmission the chance of passing is 0 (still drawn
+            // below, so a seed's rays stay the same), and the ray ends
+            // only where no active band reflects anything.
+            let p_through = if surface.transmits {
+                let through = mean(&self.active, &surface.transmitted, &energy);
+                let back = mean(&self.active, &surface.reflected, &energy);
+                if through + back <= 0.0 {
+                    break;
+                }
+                through / (through + back)
+            } else {
+                if mean(&self.active, &surface.reflected, &energy) <= 0.0 {
+                    break;
+                }
+                0.0
+            };
             if rng.random::<f64>() < p_through {
                 for (e, t) in energy.iter_mut().zip(&surface.transmitted) {
                     *e *= t / p_through;
@@ -331,18 +382,13 @@ impl<'a> Walk<'a> {
                 origin = point - facing * self.offset;
                 after_diffuse = false;
             } else {
-                let p_diffuse = self.mean(&surface.scattered, &self.active.map(f64::from));
-                let diffusely = rng.random::<f64>() < p_diffuse;
-                for ((e, r), s) in energy
-                    .iter_mut()
-                    .zip(&surface.reflected)
-                    .zip(&surface.scattered)
-                {
-                    let share = if diffusely {
-                        s / p_diffuse
-                    } else {
-                        (1.0 - s) / (1.0 - p_diffuse)
-                    };
+                let diffusely = rng.random::<f64>() < surface.p_diffuse;
+                let shares = if diffusely {
+                    &surface.diffuse_share
+                } else {
+                    &surface.specular_share
+                };
+                for ((e, r), share) in energy.iter_mut().zip(&surface.reflected).zip(shares) {
                     *e *= r * share / (1.0 - p_through);
                 }
                 dir = if diffusely {
@@ -359,22 +405,6 @@ impl<'a> Walk<'a> {
             }
         }
         u64::from(order)
-    }
-
-    /// The mean over active bands of `fraction`, weighted by `energy`.
-    fn mean(&self, fraction: &Energy, energy: &Energy) -> f64 {
-        let (mut sum, mut weight) = (0.0, 0.0);
-        for b in 0..BAND_COUNT {
-            if self.active[b] {
-                sum += fraction[b] * energy[b];
-                weight += energy[b];
-            }
-        }
-        if weight > 0.0 {
-            sum / weight
-        } else {
-            0.0
-        }
     }
 
     fn surface(&self, material: u16) -> &Surface {
