@@ -49,6 +49,11 @@ impl SceneBvh {
         if !ray.is_valid() {
             return None;
         }
+        if let [inst] = self.instances() {
+            // One object: its own walk tests the boxes the top level would.
+            let hit = inst.bvh().closest_hit(&local(inst, ray, ray.t_max))?;
+            return Some(self.scene_hit(ray, 0, hit));
+        }
         let mut best: Option<(u32, MeshHit)> = None;
         self.walk_objects(&RayTest::new(ray), ray.t_max, |object, inst, t_max| {
             if let Some(hit) = inst.bvh().closest_hit(&local(inst, ray, *t_max)) {
@@ -83,6 +88,9 @@ impl SceneBvh {
     pub fn any_hit(&self, ray: &Ray) -> bool {
         if !ray.is_valid() {
             return false;
+        }
+        if let [inst] = self.instances() {
+            return inst.bvh().any_hit(&local(inst, ray, ray.t_max));
         }
         let mut hit = false;
         self.walk_objects(&RayTest::new(ray), ray.t_max, |_, inst, t_max| {
