@@ -135,7 +135,8 @@ struct Run {
     total_ms: f64,
     threads: usize,
     /// pyroomacoustics' `compute_rir` (image sources, ray tracing,
-    /// synthesis), one run, and its threads.
+    /// synthesis): the median of its runs between frusta's rounds, and its
+    /// threads.
     pyroomacoustics_ms: Option<f64>,
     pyroomacoustics_threads: Option<usize>,
     pyroomacoustics_version: Option<String>,
@@ -209,7 +210,9 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
         ..Default::default()
     };
     let (source, listener) = (bench.source.as_vec3(), bench.listener.as_vec3());
+    let walls = BoxWalls::of(&bench.scene);
     let mut timings = Vec::new();
+    let (mut peer, mut peer_ms, mut peer_failed) = (None, Vec::new(), args.no_peer);
     let mut last = None;
     for _ in 0..args.rounds.max(1) {
         let r = simulate(&scene, &[source], &[listener], &options)
@@ -222,30 +225,42 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
             r.stats.diffraction_ms,
             r.stats.total_ms,
         ));
+        // The peer runs between frusta's rounds, so both meet the same
+        // machine, and its median is reported too.
+        if let (Some(walls), false) = (&walls, peer_failed) {
+            let job = pyroom::Job {
+                walls,
+                source: bench.source,
+                listener: bench.listener,
+                order: args.order,
+                rays: args.rays,
+                length_s: args.length,
+                speed: r.speed_of_sound_m_s,
+            };
+            match pyroom::run(&job) {
+                Ok(hybrid) => {
+                    peer_ms.push(hybrid.ms);
+                    peer = Some(hybrid);
+                }
+                Err(e) => {
+                    eprintln!("warning: pyroomacoustics on {name}: {e}");
+                    peer_failed = true;
+                }
+            }
+        }
         last = Some(r);
     }
     let r = last.expect("one round at least");
     let speed = r.speed_of_sound_m_s;
     let volume = r.stats.tail.as_ref().map_or(0.0, |t| t.volume_m3);
     let (sabine, eyring) = theory::diffuse_field(&bench.scene, volume, speed);
-    let walls = BoxWalls::of(&bench.scene);
     let exact = walls
         .as_ref()
         .filter(|_| specular)
         .map(|walls| walls.image_sources(bench.source, bench.listener, speed, args.length));
-    let peer = walls.as_ref().filter(|_| !args.no_peer).and_then(|walls| {
-        let job = pyroom::Job {
-            walls,
-            source: bench.source,
-            listener: bench.listener,
-            order: args.order,
-            rays: args.rays,
-            length_s: args.length,
-            speed,
-        };
-        pyroom::run(&job)
-            .map_err(|e| eprintln!("warning: pyroomacoustics on {name}: {e}"))
-            .ok()
+    let peer = peer.map(|mut hybrid: pyroom::Hybrid| {
+        hybrid.ms = median(peer_ms);
+        hybrid
     });
     let bands = r
         .parameters
@@ -395,7 +410,7 @@ fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
         ) {
             out += &format!(
                 "pyroomacoustics {version} hybrid (same order, rays and length; its ray-tracing \
-                 defaults): {ms:.1} ms ({threads} thread)\n"
+                 defaults): {ms:.1} ms ({threads} thread; median of runs between frusta's)\n"
             );
         }
         let mut rows = vec![[
