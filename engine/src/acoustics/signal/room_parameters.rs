@@ -19,6 +19,7 @@
 //! compensation is applied: the input is assumed noise-free, so a decay cut
 //! short by a truncated echogram is fitted as it is.
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::histogram::EnergyHistogram;
@@ -143,11 +144,12 @@ pub fn per_band_with_tail(
             BAND_COUNT - 1
         )));
     }
-    let mut echogram = Vec::with_capacity(arrivals.len());
+    // Bands in parallel: a long tail's decay fits are a few milliseconds
+    // each.
     bands
-        .iter()
+        .par_iter()
         .map(|&band| {
-            echogram.clear();
+            let mut echogram = Vec::with_capacity(arrivals.len());
             echogram.extend(
                 arrivals
                     .iter()
