@@ -478,13 +478,9 @@ mod tests {
                 (p - lo).min(hi - p).min_element()
             }
         };
-        let mut state = 7u64;
-        let mut unit = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut unit = || rng.random::<f64>();
         for _ in 0..500 {
             let p = DVec3::new(unit() * 12.0 - 1.0, unit() * 8.0 - 1.0, unit() * 5.0 - 1.0);
             let want = walls(p).min(1.5);
