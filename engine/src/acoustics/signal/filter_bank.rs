@@ -56,7 +56,8 @@ pub fn filter_and_sum(bands: &[Vec<f32>], sample_rate: u32) -> Result<Vec<f32>> 
 }
 
 /// The filter bank as a one-band-at-a-time accumulator, so that a caller
-/// rendering many bands needs memory for one band signal, not eight:
+/// rendering many bands needs memory for one band signal per bank, not
+/// eight:
 /// write a band's signal into [`input`](Self::input), [`add`](Self::add) it,
 /// repeat, then [`finish`](Self::finish).
 ///
@@ -85,8 +86,9 @@ struct Plan {
     masks: Vec<(usize, Vec<f32>)>,
 }
 
-/// Plans kept at most: responses of many lengths round to a few powers of
-/// two, and a plan for a 3 s response at 48 kHz holds about 6 MB.
+/// Plans kept at most: responses of many lengths round to a few
+/// [`transform_len`]s, and a plan for a 3 s response at 48 kHz holds about
+/// 4 MB.
 const KEPT_PLANS: usize = 8;
 
 fn plan(fft_len: usize, sample_rate: u32) -> Arc<Plan> {
@@ -134,6 +136,10 @@ fn plan(fft_len: usize, sample_rate: u32) -> Arc<Plan> {
         masks,
     });
     let mut plans = PLANS.lock().unwrap_or_else(PoisonError::into_inner);
+    // Another thread may have planned the same length meanwhile.
+    if let Some((_, p)) = plans.iter().find(|(k, _)| *k == key) {
+        return p.clone();
+    }
     if plans.len() >= KEPT_PLANS {
         plans.remove(0);
     }
@@ -217,27 +223,25 @@ impl OctaveFilterBank {
     }
 }
 
-/// The shortest even length of at least `n` whose only prime factors are
-/// 2, 3 and 5: the transforms run as fast per point at these lengths as at
-/// powers of two, and the next power of two is up to twice as long (a 3 s
-/// response at 48 kHz: 160,000 points instead of 262,144).
+/// The shortest length of at least `n` (and 16) of the form `m · 2^k` with
+/// `m` in [`LADDER`]: the transforms run about as fast per point at these
+/// lengths as at powers of two, the next power of two is up to twice as
+/// long (a 3 s response at 48 kHz: 163,840 points instead of 262,144), and
+/// five lengths an octave keep responses of nearby lengths on one plan.
 fn transform_len(n: usize) -> usize {
-    let mut best = n.max(2).next_power_of_two();
-    let mut p5 = 2;
-    while p5 < best {
-        let mut p35 = p5;
-        while p35 < best {
-            let mut len = p35;
-            while len < n {
-                len *= 2;
-            }
-            best = best.min(len);
-            p35 *= 3;
+    // Even lengths only: the last bin is then Nyquist's (see `finish`).
+    let mut scale = 2;
+    loop {
+        if let Some(len) = LADDER.iter().map(|m| m * scale).find(|&len| len >= n) {
+            return len;
         }
-        p5 *= 5;
+        scale *= 2;
     }
-    best
 }
+
+/// The steps of [`transform_len`] within an octave: 2-3-5-smooth, at most
+/// 25 % apart.
+const LADDER: [usize; 5] = [8, 9, 10, 12, 15];
 
 /// The filter tail [`TAIL_S`] in samples at `sample_rate`.
 pub(crate) fn tail_samples(sample_rate: u32) -> usize {
@@ -277,20 +281,15 @@ mod tests {
     const RATE: u32 = 48_000;
 
     #[test]
-    fn transform_lengths_are_the_next_even_5_smooth_numbers() {
-        let smooth = |mut m: usize| {
-            for p in [2, 3, 5] {
-                while m % p == 0 {
-                    m /= p;
-                }
-            }
-            m == 1
-        };
-        for n in (0..3000).chain([153_600, 1_000_001]) {
-            let want = (n.max(2)..).find(|&m| m % 2 == 0 && smooth(m)).unwrap();
+    fn transform_lengths_are_the_next_rungs_of_the_ladder() {
+        let rungs: Vec<usize> = (0..20).flat_map(|k| LADDER.map(|m| m << (k + 1))).collect();
+        for n in (0..5000).chain([153_600, 1_000_001]) {
+            let want = rungs.iter().copied().filter(|&r| r >= n).min().unwrap();
             assert_eq!(transform_len(n), want, "n = {n}");
         }
-        assert_eq!(transform_len(153_600), 153_600);
+        assert_eq!(transform_len(153_600), 163_840);
+        assert_eq!(transform_len(0), 16);
+        assert!((0..5000).all(|n| transform_len(n) % 2 == 0));
     }
 
     fn energy(signal: &[f32]) -> f64 {

@@ -291,16 +291,24 @@ impl Surfaces {
 
     /// The distance from `p` to the nearest surface (triangles with area),
     /// or `reach` if none comes closer: how large a ball around `p` stays
-    /// clear of every surface.
+    /// clear of every surface. Searched in growing cubes: a surface found
+    /// within a cube's half-side is the nearest of all, so most points stop
+    /// at a small cube however large the reach.
     pub fn clearance(&self, bvh: &SceneBvh, p: DVec3, reach: f64) -> f64 {
-        let mut nearest = reach;
-        self.slots_near(bvh, p, reach, |_, slot, _| {
-            if self.slot_group[slot] != NO_GROUP {
-                let corners = self.corners[slot].map(|c| DVec3::from(Vec3::from(c)));
-                nearest = nearest.min(p.distance(closest_on_triangle(p, corners)));
+        let mut half = reach / 64.0;
+        loop {
+            half = (4.0 * half).min(reach);
+            let mut nearest = f64::INFINITY;
+            self.slots_near(bvh, p, half, |_, slot, _| {
+                if self.slot_group[slot] != NO_GROUP {
+                    let corners = self.corners[slot].map(|c| DVec3::from(Vec3::from(c)));
+                    nearest = nearest.min(p.distance(closest_on_triangle(p, corners)));
+                }
+            });
+            if nearest <= half || half >= reach {
+                return nearest.min(reach);
             }
-        });
-        nearest
+        }
     }
 
     /// The faces of other triangles (those `own` rejects, by flat slot)

@@ -522,7 +522,7 @@ impl<'a> Receivers<'a> {
                 continue;
             }
             let path = travelled + along.clamp(0.0, leg);
-            let r = (self.growth * path).clamp(self.radius, max_radius);
+            let r = (self.growth * path).max(self.radius).min(max_radius);
             let r2 = r * r;
             if miss2 >= r2 {
                 continue;
@@ -567,7 +567,7 @@ impl<'a> Receivers<'a> {
             }
             let weight = cos / (PI * distance.max(self.radius).powi(2));
             let chance = (weight / self.rain_weight).min(1.0);
-            if chance < 1.0 && unit_hash([point.x, point.y, point.z, travelled], l) >= chance {
+            if chance < 1.0 && unit_hash([point.x, point.y, point.z, travelled]) >= chance {
                 continue;
             }
             tally.shadow_rays += 1;
@@ -585,15 +585,17 @@ impl<'a> Receivers<'a> {
     }
 }
 
-/// A number in `[0, 1)` that looks uniform, from the bits of `values` and
-/// `index` (SplitMix64's finaliser, Steele et al. 2014, over each word).
-fn unit_hash(values: [f64; 4], index: usize) -> f64 {
+/// A number in `[0, 1)` that looks uniform, from the bits of `values`
+/// (SplitMix64's finaliser, Steele et al. 2014, over each word). The
+/// event's alone, not the listener's index: a listener's tail does not
+/// depend on which others share the call, or in what order.
+fn unit_hash(values: [f64; 4]) -> f64 {
     let mix = |mut z: u64| {
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         z ^ (z >> 31)
     };
-    let mut h = mix(index as u64 ^ 0x9e37_79b9_7f4a_7c15);
+    let mut h = 0x9e37_79b9_7f4a_7c15;
     for v in values {
         h = mix(h ^ v.to_bits()).wrapping_add(0x9e37_79b9_7f4a_7c15);
     }
