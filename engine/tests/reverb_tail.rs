@@ -639,3 +639,29 @@ fn few_rays_give_a_specular_rooms_late_energy() {
         );
     }
 }
+
+/// A listener's tail is its own: the same to the bit whether it is asked
+/// for alone or beside another listener, in either order (the rain's
+/// roulette draws by the event, not by the listener's place in the call).
+#[test]
+fn a_listeners_tail_does_not_depend_on_the_others_asked_with_it() {
+    let scene = shoebox(0.2, 0.6);
+    let options = SimulationOptions {
+        max_order: 2,
+        bands_hz: vec![1000.0],
+        air: None,
+        tail: Tail::Stochastic(TailOptions {
+            rays: 2048,
+            max_length_s: 1.0,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
+    let (source, a, b) = (point(SOURCE), point(LISTENER), Vec3::new(3.0, 4.5, 1.0));
+    let alone = simulate(&scene, &[source], &[a], &options).unwrap();
+    let second = simulate(&scene, &[source], &[b, a], &options).unwrap();
+    assert!(second[0].stats.tail.as_ref().unwrap().shadow_rays > 0);
+    assert!(alone[0].late_energy.as_ref().unwrap().energy(BAND) > 0.0);
+    assert_eq!(alone[0].late_energy, second[1].late_energy);
+}
