@@ -128,11 +128,11 @@ pub fn walk_pruned<W: WideTree, T: NodeTest>(
     let mut top = 0usize;
     let mut node = 0usize;
     loop {
+        let base = top;
         let (keys, mut mask) = test.test4(&tree.boxes(node), bound);
-        // Children kept, sorted farthest first and pushed, so that the
-        // nearest, leaf or not, is handled next.
-        let mut kept = [(0u32, 0.0f32); 4];
-        let mut k = 0;
+        // The nearest kept child is handled next, the others pushed
+        // farthest first. Most nodes keep at most one child: no sort then.
+        let mut next = None;
         while mask != 0 {
             let s = mask.trailing_zeros() as usize;
             mask &= mask - 1;
@@ -144,35 +144,49 @@ pub fn walk_pruned<W: WideTree, T: NodeTest>(
                 Slot::Inner(child) => child,
                 Slot::Leaf => LEAF_REF | (node as u32) << 2 | s as u32,
             };
-            kept[k] = (entry, keys[s]);
-            k += 1;
-        }
-        if T::ORDERED {
-            for i in 1..k {
-                let mut j = i;
-                while j > 0 && kept[j - 1].1 < kept[j].1 {
-                    kept.swap(j - 1, j);
+            let entry = (entry, keys[s]);
+            let Some(held) = next else {
+                next = Some(entry);
+                continue;
+            };
+            // Of the two, the nearer stays held; the other joins the
+            // entries pushed for this node, kept sorted farthest first.
+            let (near, far) = if !T::ORDERED || held.1 <= entry.1 {
+                (held, entry)
+            } else {
+                (entry, held)
+            };
+            next = Some(near);
+            if far.0 & LEAF_REF == 0 {
+                tree.prefetch(far.0 as usize);
+            }
+            let mut j = top;
+            if T::ORDERED {
+                // SAFETY: entries below `top` were written.
+                while j > base && unsafe { stack[j - 1].assume_init() }.1 < far.1 {
+                    stack[j] = stack[j - 1];
                     j -= 1;
                 }
             }
-        }
-        for &entry in &kept[..k] {
-            if entry.0 & LEAF_REF == 0 {
-                tree.prefetch(entry.0 as usize);
-            }
-            stack[top] = MaybeUninit::new(entry);
+            stack[j] = MaybeUninit::new(far);
             top += 1;
         }
         loop {
-            if top == 0 {
-                return;
-            }
-            top -= 1;
-            // SAFETY: entries below the old `top` were written above.
-            let (index, key) = unsafe { stack[top].assume_init() };
-            if key > bound {
-                continue;
-            }
+            let (index, key) = match next.take() {
+                Some(entry) => entry,
+                None => {
+                    if top == 0 {
+                        return;
+                    }
+                    top -= 1;
+                    // SAFETY: entries below `top` were written above.
+                    let entry = unsafe { stack[top].assume_init() };
+                    if entry.1 > bound {
+                        continue;
+                    }
+                    entry
+                }
+            };
             if index & LEAF_REF == 0 {
                 if !open(index as usize, key, &mut bound) {
                     continue;
