@@ -26,10 +26,13 @@
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
-use std::ops::{Add, Mul, Sub};
 
 use glam::DVec3;
 use twofloat::TwoFloat;
+
+use super::arithmetic::{
+    lerp, magnitude, moving, rounding, side_of_axis, side_of_plane, Real, Side, V,
+};
 
 /// How close two primitives must come to count as touching, and how much
 /// work one test may do.
@@ -70,83 +73,6 @@ pub struct EdgeEdge {
 /// Parameter box: [lo, hi] for t, u and v.
 type Domain = [[f64; 2]; 3];
 
-/// The arithmetic corners are evaluated in: f64, or double-double where
-/// f64 cannot decide.
-trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
-    /// Bound on the relative error of one operation: 2⁻⁵³ for f64; for
-    /// double-double, Joldes, Muller and Popescu (2017) bound addition by
-    /// 3u² + 13u³ and multiplication by 5u², rounded up here to 8u².
-    const UNIT: f64;
-    fn of(x: f64) -> Self;
-    fn abs(self) -> Self;
-    /// `self > other`; false where either is NaN.
-    fn gt(self, other: Self) -> bool;
-    /// `self < other`; false where either is NaN.
-    fn lt(self, other: Self) -> bool {
-        other.gt(self)
-    }
-}
-
-impl Real for f64 {
-    const UNIT: f64 = f64::EPSILON / 2.0;
-    fn of(x: f64) -> Self {
-        x
-    }
-    fn abs(self) -> Self {
-        f64::abs(self)
-    }
-    #[inline]
-    fn gt(self, other: Self) -> bool {
-        self > other
-    }
-}
-
-impl Real for TwoFloat {
-    const UNIT: f64 = 8.0 * (f64::EPSILON / 2.0) * (f64::EPSILON / 2.0);
-    fn of(x: f64) -> Self {
-        TwoFloat::from(x)
-    }
-    fn abs(self) -> Self {
-        TwoFloat::abs(&self)
-    }
-    /// By the words, high first: the arithmetic's results are normalised
-    /// (the high word is the sum rounded), where that is the numbers'
-    /// order. `TwoFloat`'s own comparison checks both operands' validity
-    /// first, which calls `exp2`: 8% of the sample queries' time.
-    #[inline]
-    fn gt(self, other: Self) -> bool {
-        let (a, b) = ((self.hi(), self.lo()), (other.hi(), other.lo()));
-        a.0 > b.0 || (a.0 == b.0 && a.1 > b.1)
-    }
-}
-
-type V<T> = [T; 3];
-
-fn v_of<T: Real>(p: DVec3) -> V<T> {
-    [T::of(p.x), T::of(p.y), T::of(p.z)]
-}
-
-fn sub<T: Real>(a: V<T>, b: V<T>) -> V<T> {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn add<T: Real>(a: V<T>, b: V<T>) -> V<T> {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-fn scale<T: Real>(a: V<T>, s: T) -> V<T> {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-
-/// `a + s (b − a)`, the form whose rounding the bounds below count.
-fn lerp<T: Real>(a: V<T>, b: V<T>, s: f64) -> V<T> {
-    add(a, scale(sub(b, a), T::of(s)))
-}
-
-fn moving<T: Real>(p: &[DVec3; 2], t: f64) -> V<T> {
-    lerp(v_of(p[0]), v_of(p[1]), t)
-}
-
 /// Relative rounding bound of one corner value, in units of the largest
 /// coordinate magnitude times the arithmetic's unit: a forward error count
 /// of the corner evaluation gives 22 for edge–edge (three interpolations
@@ -155,20 +81,17 @@ fn moving<T: Real>(p: &[DVec3; 2], t: f64) -> V<T> {
 const EDGE_EDGE_ROUNDING: f64 = 48.0;
 const VERTEX_FACE_ROUNDING: f64 = 96.0;
 
-/// Largest coordinate magnitude per axis over the given points.
-fn magnitude<'a>(points: impl IntoIterator<Item = &'a DVec3>) -> DVec3 {
-    points.into_iter().fold(DVec3::ZERO, |m, p| m.max(p.abs()))
-}
-
-/// The rounding bound per coordinate of corner values computed in `T`.
-fn rounding<T: Real>(magnitude: DVec3, operations: f64) -> DVec3 {
-    magnitude * (operations * T::UNIT) + DVec3::splat(operations * f64::MIN_POSITIVE)
-}
-
 /// What a primitive pair gives the search.
 trait Primitives {
-    /// F at the eight corners of `d`, index `4 t + 2 u + v`.
-    fn corners<T: Real>(&self, d: &Domain) -> [V<T>; 8];
+    /// Coordinate `axis` of F at the eight corners of `d`, index
+    /// `4 t + 2 u + v` (F is computed coordinate by coordinate, so a
+    /// coordinate alone costs a third of the vector).
+    fn coordinate<T: Real>(&self, d: &Domain, axis: usize) -> [T; 8];
+    /// F at the eight corners of `d`.
+    fn corners<T: Real>(&self, d: &Domain) -> [V<T>; 8] {
+        let c = [0, 1, 2].map(|axis| self.coordinate::<T>(d, axis));
+        std::array::from_fn(|i| [c[0][i], c[1][i], c[2][i]])
+    }
     /// A direction along which F's component does not depend on (u, v)
     /// halfway through the box's time.
     fn normal(&self, d: &Domain) -> DVec3;
@@ -180,16 +103,17 @@ trait Primitives {
 }
 
 impl Primitives for VertexFace {
-    fn corners<T: Real>(&self, d: &Domain) -> [V<T>; 8] {
-        let mut out = [[T::of(0.0); 3]; 8];
+    #[inline(always)]
+    fn coordinate<T: Real>(&self, d: &Domain, axis: usize) -> [T; 8] {
+        let mut out = [T::of(0.0); 8];
         for (i, &t) in d[0].iter().enumerate() {
-            let p = moving(&self.vertex, t);
-            let [f0, f1, f2] = self.face.each_ref().map(|f| moving::<T>(f, t));
-            let (e1, e2) = (sub(f1, f0), sub(f2, f0));
+            let p: T = moving(&self.vertex, axis, t);
+            let [f0, f1, f2] = self.face.each_ref().map(|f| moving::<T>(f, axis, t));
+            let (e1, e2) = (f1 - f0, f2 - f0);
             for (j, &u) in d[1].iter().enumerate() {
-                let fu = add(f0, scale(e1, T::of(u)));
+                let fu = f0 + e1.scaled(u);
                 for (k, &v) in d[2].iter().enumerate() {
-                    out[4 * i + 2 * j + k] = sub(p, add(fu, scale(e2, T::of(v))));
+                    out[4 * i + 2 * j + k] = p - (fu + e2.scaled(v));
                 }
             }
         }
@@ -213,15 +137,16 @@ impl Primitives for VertexFace {
 }
 
 impl Primitives for EdgeEdge {
-    fn corners<T: Real>(&self, d: &Domain) -> [V<T>; 8] {
-        let mut out = [[T::of(0.0); 3]; 8];
+    #[inline(always)]
+    fn coordinate<T: Real>(&self, d: &Domain, axis: usize) -> [T; 8] {
+        let mut out = [T::of(0.0); 8];
         for (i, &t) in d[0].iter().enumerate() {
-            let [a0, a1] = self.a.each_ref().map(|p| moving::<T>(p, t));
-            let [b0, b1] = self.b.each_ref().map(|p| moving::<T>(p, t));
+            let [a0, a1] = self.a.each_ref().map(|p| moving::<T>(p, axis, t));
+            let [b0, b1] = self.b.each_ref().map(|p| moving::<T>(p, axis, t));
             for (j, &u) in d[1].iter().enumerate() {
                 let pa = lerp(a0, a1, u);
                 for (k, &v) in d[2].iter().enumerate() {
-                    out[4 * i + 2 * j + k] = sub(pa, lerp(b0, b1, v));
+                    out[4 * i + 2 * j + k] = pa - lerp(b0, b1, v);
                 }
             }
         }
@@ -244,59 +169,13 @@ impl Primitives for EdgeEdge {
     }
 }
 
-/// Whether the plane through the origin with normal `n` has every corner
-/// value strictly on one side: `Some(true)` beyond the rounding of the
-/// values (`rounding` per coordinate) and of the dot products, `Some(false)`
-/// only within it, `None` where the values straddle the plane.
-fn separates<T: Real>(values: &[V<T>; 8], n: DVec3, rounding: DVec3) -> Option<bool> {
-    let (n, an) = (v_of::<T>(n), n.abs());
-    let shift = rounding.dot(an);
-    let (mut above, mut below, mut clear) = (true, true, true);
-    let zero = T::of(0.0);
-    for v in values {
-        let dot = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
-        let size = v[0].abs() * T::of(an.x) + v[1].abs() * T::of(an.y) + v[2].abs() * T::of(an.z);
-        // Three products and two sums, each within UNIT of its result.
-        let margin = T::of(shift) + size * T::of(6.0 * T::UNIT);
-        above &= dot.gt(zero);
-        below &= dot.lt(zero);
-        clear &= dot.gt(margin) || (zero - dot).gt(margin);
-    }
-    (above || below).then_some(clear)
-}
-
-/// The same for the three coordinate planes: `Some(true)` where one
-/// coordinate has every value beyond its rounding on one side.
-fn separates_on_an_axis<T: Real>(values: &[V<T>; 8], rounding: DVec3) -> Option<bool> {
-    let zero = T::of(0.0);
-    let mut verdict = None;
-    for axis in 0..3 {
-        let (mut lo, mut hi) = (values[0][axis], values[0][axis]);
-        for v in &values[1..] {
-            if v[axis].lt(lo) {
-                lo = v[axis];
-            }
-            if v[axis].gt(hi) {
-                hi = v[axis];
-            }
-        }
-        let r = T::of(rounding[axis]);
-        if lo.gt(r) || (zero - hi).gt(r) {
-            return Some(true);
-        }
-        if lo.gt(zero) || hi.lt(zero) {
-            verdict = Some(false);
-        }
-    }
-    verdict
-}
-
 /// Whether the box surely holds a root, by the Poincaré–Miranda theorem:
 /// with F preconditioned by the inverse of its mean differences along the
 /// box's edges (G = P F, still linear in each parameter, so its extremes on
 /// a face are at the face's corners), each component of G is negative on
 /// one face of its parameter and positive on the opposite one, beyond the
 /// rounding of F (`rounding`) and of the product.
+#[inline(always)]
 fn holds_a_root(values: &[DVec3; 8], rounding: DVec3) -> bool {
     let mean_difference = |bit: usize| {
         (0..8)
@@ -336,29 +215,71 @@ fn holds_a_root(values: &[DVec3; 8], rounding: DVec3) -> bool {
     })
 }
 
+/// What the search knows of a query's arithmetic.
+struct Exactness {
+    /// Rounding bound per coordinate of corner values in f64, then in
+    /// double-double.
+    rounding: [DVec3; 2],
+    /// Coordinates in which every point of the query is the same: there F
+    /// is exactly zero everywhere (interpolations between equal numbers and
+    /// their differences are exact), so no plane along them is worth
+    /// computing again.
+    flat: [bool; 3],
+}
+
+impl Exactness {
+    fn of<P: Primitives>(primitives: &P) -> Self {
+        let size = magnitude(primitives.points());
+        let first = primitives.points().next().copied().unwrap_or(DVec3::ZERO);
+        Self {
+            rounding: [
+                rounding::<f64>(size, P::OPERATIONS),
+                rounding::<TwoFloat>(size, P::OPERATIONS),
+            ],
+            flat: std::array::from_fn(|axis| primitives.points().all(|p| p[axis] == first[axis])),
+        }
+    }
+}
+
 /// Whether some plane separates the box's values from the origin, beyond
-/// doubt: decided in f64 where that suffices, else in double-double.
+/// doubt: decided in f64 where that suffices, else in double-double, for
+/// only the coordinates whose f64 values leave a doubt.
+#[inline(always)]
 fn box_is_apart<P: Primitives>(
     primitives: &P,
     d: &Domain,
     values: &[V<f64>; 8],
-    bounds: &[DVec3; 2],
+    exactness: &Exactness,
 ) -> bool {
-    let axis = separates_on_an_axis(values, bounds[0]);
-    if axis == Some(true) {
+    let [rounding, exact_rounding] = exactness.rounding;
+    let axes: [Side; 3] =
+        std::array::from_fn(|axis| side_of_axis(&values.map(|v| v[axis]), rounding[axis]));
+    if axes.contains(&Side::Apart) {
         return true;
     }
     let normal = primitives.normal(d);
-    let plane = separates(values, normal, bounds[0]);
-    if plane == Some(true) {
+    let plane = side_of_plane(values, normal, rounding);
+    if plane == Side::Apart {
         return true;
     }
-    if axis.is_none() && plane.is_none() {
+    let mut exact: [Option<[TwoFloat; 8]>; 3] = [None; 3];
+    for axis in 0..3 {
+        if axes[axis] == Side::InDoubt && !exactness.flat[axis] {
+            let c = primitives.coordinate::<TwoFloat>(d, axis);
+            if side_of_axis(&c, exact_rounding[axis]) == Side::Apart {
+                return true;
+            }
+            exact[axis] = Some(c);
+        }
+    }
+    let along_flat = (0..3).all(|axis| exactness.flat[axis] || normal[axis] == 0.0);
+    if plane != Side::InDoubt || along_flat {
         return false;
     }
-    let exact: [V<TwoFloat>; 8] = primitives.corners(d);
-    separates_on_an_axis(&exact, bounds[1]) == Some(true)
-        || separates(&exact, normal, bounds[1]) == Some(true)
+    let c: [[TwoFloat; 8]; 3] =
+        std::array::from_fn(|axis| exact[axis].unwrap_or_else(|| primitives.coordinate(d, axis)));
+    let exact: [V<TwoFloat>; 8] = std::array::from_fn(|i| [c[0][i], c[1][i], c[2][i]]);
+    side_of_plane(&exact, normal, exact_rounding) == Side::Apart
 }
 
 impl VertexFace {
@@ -422,14 +343,15 @@ enum Step {
 /// Decides one box: apart, a contact, or split along the parameter along
 /// which F varies most (time alone once the box surely holds a root: then
 /// only the time needs narrowing to the tolerance).
+#[inline(always)]
 fn step<P: Primitives>(
     primitives: &P,
     d: &Domain,
-    bounds: &[DVec3; 2],
+    exactness: &Exactness,
     options: &CcdOptions,
 ) -> Step {
     let values: [V<f64>; 8] = primitives.corners(d);
-    if box_is_apart(primitives, d, &values, bounds) {
+    if box_is_apart(primitives, d, &values, exactness) {
         return Step::Apart;
     }
     let values = values.map(DVec3::from_array);
@@ -438,7 +360,8 @@ fn step<P: Primitives>(
         .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(*v), hi.max(*v))
         });
-    let tolerance = DVec3::splat(options.tolerance) - bounds[0];
+    let rounding = exactness.rounding[0];
+    let tolerance = DVec3::splat(options.tolerance) - rounding;
     if lo.cmpge(-tolerance).all() && hi.cmple(tolerance).all() {
         return Step::Contact;
     }
@@ -450,7 +373,7 @@ fn step<P: Primitives>(
             .fold(0.0, f64::max)
     };
     let inside = !P::SIMPLEX || d[1][1] + d[2][1] <= 1.0;
-    let axis = if inside && holds_a_root(&values, bounds[0]) {
+    let axis = if inside && holds_a_root(&values, rounding) {
         if spread(0) <= options.tolerance {
             return Step::Contact;
         }
@@ -482,11 +405,30 @@ impl CcdScratch {
     /// the first contact of that phase is the answer. A box holding a root
     /// is never dropped, so the answer is at most the earliest root's time.
     fn search<P: Primitives>(&mut self, primitives: &P, options: &CcdOptions) -> Option<f64> {
-        let size = magnitude(primitives.points());
-        let bounds = [
-            rounding::<f64>(size, P::OPERATIONS),
-            rounding::<TwoFloat>(size, P::OPERATIONS),
-        ];
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has FMA, checked just above.
+            return unsafe { self.search_with_fma(primitives, options) };
+        }
+        self.search_in(primitives, options)
+    }
+
+    /// [`search`](Self::search) compiled with FMA: double-double products
+    /// are fused multiply-adds, which the x86-64 baseline makes library
+    /// calls.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "fma")]
+    unsafe fn search_with_fma<P: Primitives>(
+        &mut self,
+        primitives: &P,
+        options: &CcdOptions,
+    ) -> Option<f64> {
+        self.search_in(primitives, options)
+    }
+
+    #[inline(always)]
+    fn search_in<P: Primitives>(&mut self, primitives: &P, options: &CcdOptions) -> Option<f64> {
+        let exactness = Exactness::of(primitives);
         let in_domain = |d: &Domain| !P::SIMPLEX || d[1][0] + d[2][0] <= 1.0;
         self.stack.clear();
         self.queue.clear();
@@ -500,7 +442,7 @@ impl CcdScratch {
                 // is excluded.
                 return Some(self.stack.iter().map(|d| d[0][0]).fold(d[0][0], f64::min));
             }
-            match step(primitives, &d, &bounds, options) {
+            match step(primitives, &d, &exactness, options) {
                 Step::Apart => {}
                 Step::Contact => {
                     first = Some(d[0][0]);
@@ -524,7 +466,7 @@ impl CcdScratch {
                 return Some(d[0][0]);
             }
             d[0][1] = d[0][1].min(best);
-            match step(primitives, &d, &bounds, options) {
+            match step(primitives, &d, &exactness, options) {
                 Step::Apart => {}
                 Step::Contact => return Some(d[0][0]),
                 Step::Split(halves) => {
@@ -588,6 +530,36 @@ mod tests {
             face: floor_face(),
         };
         assert!(toi_vf(&q).is_some());
+    }
+
+    /// Edge a's end passes edge b's end 2^-54 apart in z, at t = 0.5,
+    /// where f64 rounds the gap to zero (1 - 2^-54 rounds to 1): a near
+    /// miss, as in the benchmark's cliff edges. The same end kept at z = 1
+    /// touches.
+    #[test]
+    fn a_near_miss_below_f64_resolution_is_told_from_a_touch() {
+        let b = [DVec3::new(1.0, 0.5, 1.0), DVec3::new(0.0, 0.5, 2.0)].map(still);
+        let a_end = [DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, 0.0, 0.0)];
+        let miss = EdgeEdge {
+            a: [
+                [
+                    DVec3::new(1.0, 1.0, 1.0),
+                    DVec3::new(1.0, 0.0, 1.0 - f64::EPSILON / 2.0),
+                ],
+                a_end,
+            ],
+            b,
+        };
+        assert_eq!(toi_ee(&miss), None);
+        let touch = EdgeEdge {
+            a: [
+                [DVec3::new(1.0, 1.0, 1.0), DVec3::new(1.0, 0.0, 1.0)],
+                a_end,
+            ],
+            b,
+        };
+        let t = toi_ee(&touch).expect("the ends meet");
+        assert!(t <= 0.5 && t > 0.5 - 1e-5, "{t}");
     }
 
     #[test]

@@ -6,6 +6,7 @@
 //! six vertex–face and nine edge–edge tests of every candidate triangle
 //! pair ([`inclusion`]).
 
+mod arithmetic;
 mod inclusion;
 mod sample_queries;
 
