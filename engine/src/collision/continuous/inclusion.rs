@@ -87,10 +87,20 @@ trait Primitives {
     /// `4 t + 2 u + v` (F is computed coordinate by coordinate, so a
     /// coordinate alone costs a third of the vector).
     fn coordinate<T: Real>(&self, d: &Domain, axis: usize) -> [T; 8];
+    /// Coordinate `axis` of F at one point `(t, u, v)`, by the same
+    /// operations as [`coordinate`](Self::coordinate).
+    fn at<T: Real>(&self, axis: usize, t: f64, u: f64, v: f64) -> T;
     /// F at the eight corners of `d`.
+    #[inline(always)]
     fn corners<T: Real>(&self, d: &Domain) -> [V<T>; 8] {
-        let c = [0, 1, 2].map(|axis| self.coordinate::<T>(d, axis));
-        std::array::from_fn(|i| [c[0][i], c[1][i], c[2][i]])
+        let mut out = [[T::of(0.0); 3]; 8];
+        for axis in 0..3 {
+            let c = self.coordinate::<T>(d, axis);
+            for (v, x) in out.iter_mut().zip(c) {
+                v[axis] = x;
+            }
+        }
+        out
     }
     /// A direction along which F's component does not depend on (u, v)
     /// halfway through the box's time.
@@ -108,7 +118,9 @@ impl Primitives for VertexFace {
         let mut out = [T::of(0.0); 8];
         for (i, &t) in d[0].iter().enumerate() {
             let p: T = moving(&self.vertex, axis, t);
-            let [f0, f1, f2] = self.face.each_ref().map(|f| moving::<T>(f, axis, t));
+            let f0: T = moving(&self.face[0], axis, t);
+            let f1: T = moving(&self.face[1], axis, t);
+            let f2: T = moving(&self.face[2], axis, t);
             let (e1, e2) = (f1 - f0, f2 - f0);
             for (j, &u) in d[1].iter().enumerate() {
                 let fu = f0 + e1.scaled(u);
@@ -118,6 +130,16 @@ impl Primitives for VertexFace {
             }
         }
         out
+    }
+
+    #[inline(always)]
+    fn at<T: Real>(&self, axis: usize, t: f64, u: f64, v: f64) -> T {
+        let p: T = moving(&self.vertex, axis, t);
+        let f0: T = moving(&self.face[0], axis, t);
+        let f1: T = moving(&self.face[1], axis, t);
+        let f2: T = moving(&self.face[2], axis, t);
+        let (e1, e2) = (f1 - f0, f2 - f0);
+        p - ((f0 + e1.scaled(u)) + e2.scaled(v))
     }
 
     /// The face's normal: F along it is the vertex's height over the
@@ -141,8 +163,8 @@ impl Primitives for EdgeEdge {
     fn coordinate<T: Real>(&self, d: &Domain, axis: usize) -> [T; 8] {
         let mut out = [T::of(0.0); 8];
         for (i, &t) in d[0].iter().enumerate() {
-            let [a0, a1] = self.a.each_ref().map(|p| moving::<T>(p, axis, t));
-            let [b0, b1] = self.b.each_ref().map(|p| moving::<T>(p, axis, t));
+            let (a0, a1): (T, T) = (moving(&self.a[0], axis, t), moving(&self.a[1], axis, t));
+            let (b0, b1): (T, T) = (moving(&self.b[0], axis, t), moving(&self.b[1], axis, t));
             for (j, &u) in d[1].iter().enumerate() {
                 let pa = lerp(a0, a1, u);
                 for (k, &v) in d[2].iter().enumerate() {
@@ -151,6 +173,13 @@ impl Primitives for EdgeEdge {
             }
         }
         out
+    }
+
+    #[inline(always)]
+    fn at<T: Real>(&self, axis: usize, t: f64, u: f64, v: f64) -> T {
+        let (a0, a1): (T, T) = (moving(&self.a[0], axis, t), moving(&self.a[1], axis, t));
+        let (b0, b1): (T, T) = (moving(&self.b[0], axis, t), moving(&self.b[1], axis, t));
+        lerp(a0, a1, u) - lerp(b0, b1, v)
     }
 
     /// The edges' common normal: F along it is the lines' distance.
@@ -241,6 +270,46 @@ impl Exactness {
     }
 }
 
+/// Whether coordinate `axis` of F is, exactly, beyond its double-double
+/// rounding on one side at every corner of `d`. Only the corners whose
+/// f64 values (`values`, within `rounding`) leave that in doubt are
+/// computed again, the likeliest to fail first, so a true contact (an
+/// exact zero) costs one corner.
+fn exact_axis_is_apart<P: Primitives>(
+    primitives: &P,
+    d: &Domain,
+    values: &[V<f64>; 8],
+    axis: usize,
+    rounding: f64,
+    exact_rounding: f64,
+) -> bool {
+    let bound = TwoFloat::from(exact_rounding);
+    [1.0, -1.0].into_iter().any(|sign: f64| {
+        // Values signed so that the side asked about is positive.
+        let mut signed = [0.0; 8];
+        for (x, v) in signed.iter_mut().zip(values) {
+            *x = sign * v[axis];
+        }
+        if signed.iter().any(|&x| x < -rounding) {
+            return false;
+        }
+        let mut doubt = [(0.0, 0usize); 8];
+        let mut n = 0;
+        for (i, &x) in signed.iter().enumerate() {
+            if x <= rounding {
+                doubt[n] = (x, i);
+                n += 1;
+            }
+        }
+        doubt[..n].sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+        doubt[..n].iter().all(|&(_, i)| {
+            let exact: TwoFloat =
+                primitives.at(axis, d[0][i >> 2], d[1][(i >> 1) & 1], d[2][i & 1]);
+            exact.scaled(sign).gt(bound)
+        })
+    })
+}
+
 /// Whether some plane separates the box's values from the origin, beyond
 /// doubt: decided in f64 where that suffices, else in double-double, for
 /// only the coordinates whose f64 values leave a doubt.
@@ -252,8 +321,14 @@ fn box_is_apart<P: Primitives>(
     exactness: &Exactness,
 ) -> bool {
     let [rounding, exact_rounding] = exactness.rounding;
-    let axes: [Side; 3] =
-        std::array::from_fn(|axis| side_of_axis(&values.map(|v| v[axis]), rounding[axis]));
+    let mut axes = [Side::Straddles; 3];
+    for (axis, side) in axes.iter_mut().enumerate() {
+        let mut c = [0.0; 8];
+        for (x, v) in c.iter_mut().zip(values) {
+            *x = v[axis];
+        }
+        *side = side_of_axis(&c, rounding[axis]);
+    }
     if axes.contains(&Side::Apart) {
         return true;
     }
@@ -262,23 +337,25 @@ fn box_is_apart<P: Primitives>(
     if plane == Side::Apart {
         return true;
     }
-    let mut exact: [Option<[TwoFloat; 8]>; 3] = [None; 3];
-    for axis in 0..3 {
-        if axes[axis] == Side::InDoubt && !exactness.flat[axis] {
-            let c = primitives.coordinate::<TwoFloat>(d, axis);
-            if side_of_axis(&c, exact_rounding[axis]) == Side::Apart {
-                return true;
-            }
-            exact[axis] = Some(c);
-        }
+    let in_doubt = |axis: usize| axes[axis] == Side::InDoubt && !exactness.flat[axis];
+    if (0..3).any(|axis| {
+        in_doubt(axis)
+            && exact_axis_is_apart(
+                primitives,
+                d,
+                values,
+                axis,
+                rounding[axis],
+                exact_rounding[axis],
+            )
+    }) {
+        return true;
     }
     let along_flat = (0..3).all(|axis| exactness.flat[axis] || normal[axis] == 0.0);
     if plane != Side::InDoubt || along_flat {
         return false;
     }
-    let c: [[TwoFloat; 8]; 3] =
-        std::array::from_fn(|axis| exact[axis].unwrap_or_else(|| primitives.coordinate(d, axis)));
-    let exact: [V<TwoFloat>; 8] = std::array::from_fn(|i| [c[0][i], c[1][i], c[2][i]]);
+    let exact: [V<TwoFloat>; 8] = primitives.corners(d);
     side_of_plane(&exact, normal, exact_rounding) == Side::Apart
 }
 
