@@ -113,20 +113,28 @@ pub(super) enum Side {
     Straddles,
 }
 
+/// `v`'s component along `n` (unnormalised), and the bound on its
+/// rounding: `v`'s coordinates are within `rounding` of exact, and the
+/// product's own rounding is added.
+#[inline(always)]
+pub(super) fn along<T: Real>(v: &V<T>, n: DVec3, rounding: DVec3) -> (T, T) {
+    let an = n.abs();
+    let n = v_of::<T>(n);
+    let dot = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+    let size = v[0].abs() * T::of(an.x) + v[1].abs() * T::of(an.y) + v[2].abs() * T::of(an.z);
+    // Three products and two sums, each within UNIT of its result.
+    (dot, T::of(rounding.dot(an)) + size * T::of(6.0 * T::UNIT))
+}
+
 /// Where the plane with normal `n` lies against `values`, whose
 /// coordinates are within `rounding` of exact; the dot products' own
 /// rounding is added.
 #[inline(always)]
 pub(super) fn side_of_plane<T: Real>(values: &[V<T>; 8], n: DVec3, rounding: DVec3) -> Side {
-    let (n, an) = (v_of::<T>(n), n.abs());
-    let shift = rounding.dot(an);
     let (mut above, mut below, mut clear) = (true, true, true);
     let zero = T::of(0.0);
     for v in values {
-        let dot = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
-        let size = v[0].abs() * T::of(an.x) + v[1].abs() * T::of(an.y) + v[2].abs() * T::of(an.z);
-        // Three products and two sums, each within UNIT of its result.
-        let margin = T::of(shift) + size * T::of(6.0 * T::UNIT);
+        let (dot, margin) = along(v, n, rounding);
         above &= (zero - dot).lt(margin);
         below &= dot.lt(margin);
         clear &= dot.gt(margin) || (zero - dot).gt(margin);

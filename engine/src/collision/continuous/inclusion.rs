@@ -31,7 +31,7 @@ use glam::DVec3;
 use twofloat::TwoFloat;
 
 use super::arithmetic::{
-    lerp, magnitude, moving, rounding, side_of_axis, side_of_plane, Real, Side, V,
+    along, lerp, magnitude, moving, rounding, side_of_axis, side_of_plane, Real, Side, V,
 };
 
 /// How close two primitives must come to count as touching, and how much
@@ -270,44 +270,39 @@ impl Exactness {
     }
 }
 
-/// Whether coordinate `axis` of F is, exactly, beyond its double-double
-/// rounding on one side at every corner of `d`. Only the corners whose
-/// f64 values (`values`, within `rounding`) leave that in doubt are
-/// computed again, the likeliest to fail first, so a true contact (an
-/// exact zero) costs one corner.
-fn exact_axis_is_apart<P: Primitives>(
-    primitives: &P,
-    d: &Domain,
-    values: &[V<f64>; 8],
-    axis: usize,
-    rounding: f64,
-    exact_rounding: f64,
+/// Whether a linear quantity of F (a coordinate, or its component along a
+/// plane's normal) is, exactly, beyond its double-double rounding on one
+/// side at every corner. `approx` holds each corner's f64 value and its
+/// rounding bound; `exact(corner)` the same in double-double. Only the
+/// corners that f64 leaves in doubt are computed again, likeliest to fail
+/// first, so a true contact (an exact zero) costs one corner.
+fn exactly_on_one_side(
+    approx: &[(f64, f64); 8],
+    exact: impl Fn(usize) -> (TwoFloat, TwoFloat),
 ) -> bool {
-    let bound = TwoFloat::from(exact_rounding);
     [1.0, -1.0].into_iter().any(|sign: f64| {
-        // Values signed so that the side asked about is positive.
-        let mut signed = [0.0; 8];
-        for (x, v) in signed.iter_mut().zip(values) {
-            *x = sign * v[axis];
-        }
-        if signed.iter().any(|&x| x < -rounding) {
+        if approx.iter().any(|&(q, m)| sign * q < -m) {
             return false;
         }
         let mut doubt = [(0.0, 0usize); 8];
         let mut n = 0;
-        for (i, &x) in signed.iter().enumerate() {
-            if x <= rounding {
-                doubt[n] = (x, i);
+        for (i, &(q, m)) in approx.iter().enumerate() {
+            if sign * q <= m {
+                doubt[n] = (sign * q, i);
                 n += 1;
             }
         }
         doubt[..n].sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
         doubt[..n].iter().all(|&(_, i)| {
-            let exact: TwoFloat =
-                primitives.at(axis, d[0][i >> 2], d[1][(i >> 1) & 1], d[2][i & 1]);
-            exact.scaled(sign).gt(bound)
+            let (q, m) = exact(i);
+            q.scaled(sign).gt(m)
         })
     })
+}
+
+/// The parameters of corner `i` of `d`.
+fn corner(d: &Domain, i: usize) -> (f64, f64, f64) {
+    (d[0][i >> 2], d[1][(i >> 1) & 1], d[2][i & 1])
 }
 
 /// Whether some plane separates the box's values from the origin, beyond
@@ -337,26 +332,35 @@ fn box_is_apart<P: Primitives>(
     if plane == Side::Apart {
         return true;
     }
-    let in_doubt = |axis: usize| axes[axis] == Side::InDoubt && !exactness.flat[axis];
-    if (0..3).any(|axis| {
-        in_doubt(axis)
-            && exact_axis_is_apart(
-                primitives,
-                d,
-                values,
-                axis,
-                rounding[axis],
-                exact_rounding[axis],
-            )
-    }) {
-        return true;
+    let exact_at = |axis: usize, i: usize| -> TwoFloat {
+        let (t, u, v) = corner(d, i);
+        primitives.at(axis, t, u, v)
+    };
+    for axis in 0..3 {
+        if axes[axis] != Side::InDoubt || exactness.flat[axis] {
+            continue;
+        }
+        let mut approx = [(0.0, 0.0); 8];
+        for (a, v) in approx.iter_mut().zip(values) {
+            *a = (v[axis], rounding[axis]);
+        }
+        let bound = TwoFloat::from(exact_rounding[axis]);
+        if exactly_on_one_side(&approx, |i| (exact_at(axis, i), bound)) {
+            return true;
+        }
     }
     let along_flat = (0..3).all(|axis| exactness.flat[axis] || normal[axis] == 0.0);
     if plane != Side::InDoubt || along_flat {
         return false;
     }
-    let exact: [V<TwoFloat>; 8] = primitives.corners(d);
-    side_of_plane(&exact, normal, exact_rounding) == Side::Apart
+    let mut approx = [(0.0, 0.0); 8];
+    for (a, v) in approx.iter_mut().zip(values) {
+        *a = along(v, normal, rounding);
+    }
+    exactly_on_one_side(&approx, |i| {
+        let v = [exact_at(0, i), exact_at(1, i), exact_at(2, i)];
+        along(&v, normal, exact_rounding)
+    })
 }
 
 impl VertexFace {
