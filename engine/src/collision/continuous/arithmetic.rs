@@ -73,10 +73,6 @@ impl Real for TwoFloat {
 
 pub(super) type V<T> = [T; 3];
 
-pub(super) fn v_of<T: Real>(p: DVec3) -> V<T> {
-    [T::of(p.x), T::of(p.y), T::of(p.z)]
-}
-
 /// `a + s (b − a)`, the form whose rounding the bounds below count.
 #[inline(always)]
 pub(super) fn lerp<T: Real>(a: T, b: T, s: f64) -> T {
@@ -109,7 +105,7 @@ pub(super) enum Side {
     /// exact values may be apart (a value rounded to zero may be a near
     /// miss of 1e-17, as in the benchmark's cliff edges).
     InDoubt,
-    /// Values beyond their rounding on both sides.
+    /// Values at or beyond their rounding on both sides.
     Straddles,
 }
 
@@ -119,9 +115,8 @@ pub(super) enum Side {
 #[inline(always)]
 pub(super) fn along<T: Real>(v: &V<T>, n: DVec3, rounding: DVec3) -> (T, T) {
     let an = n.abs();
-    let n = v_of::<T>(n);
-    let dot = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
-    let size = v[0].abs() * T::of(an.x) + v[1].abs() * T::of(an.y) + v[2].abs() * T::of(an.z);
+    let dot = v[0].scaled(n.x) + v[1].scaled(n.y) + v[2].scaled(n.z);
+    let size = v[0].abs().scaled(an.x) + v[1].abs().scaled(an.y) + v[2].abs().scaled(an.z);
     // Three products and two sums, each within UNIT of its result.
     (dot, T::of(rounding.dot(an)) + size * T::of(6.0 * T::UNIT))
 }

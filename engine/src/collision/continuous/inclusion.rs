@@ -19,7 +19,8 @@
 //! tolerance of the origin. A root's box is never dropped, so nothing that
 //! touches is missed; coplanar, parallel and motionless configurations need
 //! no special case. Corners are evaluated in f64 with a forward error
-//! bound; where a plane separates only within that bound, the box is
+//! bound; where a plane may separate only within that bound (every value
+//! on one side of it or within the bound of it), the corners in doubt are
 //! evaluated again in double-double arithmetic, whose bound is 2⁻⁵⁰ times
 //! smaller, so near misses far below f64's resolution are still told from
 //! contacts.
@@ -276,28 +277,37 @@ impl Exactness {
 /// rounding bound; `exact(corner)` the same in double-double. Only the
 /// corners that f64 leaves in doubt are computed again, likeliest to fail
 /// first, so a true contact (an exact zero) costs one corner.
+#[inline(always)]
 fn exactly_on_one_side(
     approx: &[(f64, f64); 8],
     exact: impl Fn(usize) -> (TwoFloat, TwoFloat),
 ) -> bool {
-    [1.0, -1.0].into_iter().any(|sign: f64| {
-        if approx.iter().any(|&(q, m)| sign * q < -m) {
-            return false;
-        }
+    // A corner computed again for one side is kept for the other.
+    let mut known: [Option<(TwoFloat, TwoFloat)>; 8] = [None; 8];
+    'sides: for sign in [1.0, -1.0] {
+        // In doubt: not surely beyond the rounding (NaN included).
         let mut doubt = [(0.0, 0usize); 8];
         let mut n = 0;
         for (i, &(q, m)) in approx.iter().enumerate() {
-            if sign * q <= m {
-                doubt[n] = (sign * q, i);
+            let q = sign * q;
+            if q < -m {
+                continue 'sides;
+            }
+            if !(q > m) {
+                doubt[n] = (q, i);
                 n += 1;
             }
         }
         doubt[..n].sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
-        doubt[..n].iter().all(|&(_, i)| {
-            let (q, m) = exact(i);
-            q.scaled(sign).gt(m)
-        })
-    })
+        for &(_, i) in &doubt[..n] {
+            let (q, m) = *known[i].get_or_insert_with(|| exact(i));
+            if !q.scaled(sign).gt(m) {
+                continue 'sides;
+            }
+        }
+        return true;
+    }
+    false
 }
 
 /// The parameters of corner `i` of `d`.
@@ -486,29 +496,6 @@ impl CcdScratch {
     /// the first contact of that phase is the answer. A box holding a root
     /// is never dropped, so the answer is at most the earliest root's time.
     fn search<P: Primitives>(&mut self, primitives: &P, options: &CcdOptions) -> Option<f64> {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU has FMA, checked just above.
-            return unsafe { self.search_with_fma(primitives, options) };
-        }
-        self.search_in(primitives, options)
-    }
-
-    /// [`search`](Self::search) compiled with FMA: double-double products
-    /// are fused multiply-adds, which the x86-64 baseline makes library
-    /// calls.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "fma")]
-    unsafe fn search_with_fma<P: Primitives>(
-        &mut self,
-        primitives: &P,
-        options: &CcdOptions,
-    ) -> Option<f64> {
-        self.search_in(primitives, options)
-    }
-
-    #[inline(always)]
-    fn search_in<P: Primitives>(&mut self, primitives: &P, options: &CcdOptions) -> Option<f64> {
         let exactness = Exactness::of(primitives);
         let in_domain = |d: &Domain| !P::SIMPLEX || d[1][0] + d[2][0] <= 1.0;
         self.stack.clear();
