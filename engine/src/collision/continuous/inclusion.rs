@@ -293,7 +293,7 @@ fn exactly_on_one_side(
             if q < -m {
                 continue 'sides;
             }
-            if !(q > m) {
+            if q.partial_cmp(&m) != Some(std::cmp::Ordering::Greater) {
                 doubt[n] = (q, i);
                 n += 1;
             }
