@@ -28,15 +28,23 @@ fn shoebox(absorption: f32, scattering: f32) -> AcousticScene {
     AcousticScene::new(&Scene::single_object("room", room.generate().unwrap(), walls).unwrap())
 }
 
-fn respond(scene: &AcousticScene, max_order: u32, tail: Tail) -> Response {
-    let options = SimulationOptions {
+/// One band at 1 kHz, no air: what the tests below compare.
+fn options(max_order: u32, tail: Tail) -> SimulationOptions {
+    SimulationOptions {
         max_order,
         bands_hz: vec![1000.0],
         air: None,
         tail,
         ..Default::default()
-    };
-    let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
+    }
+}
+
+fn point(p: [f64; 3]) -> Vec3 {
+    Vec3::from_array(p.map(|v| v as f32))
+}
+
+fn respond(scene: &AcousticScene, max_order: u32, tail: Tail) -> Response {
+    let options = options(max_order, tail);
     simulate(scene, &[point(SOURCE)], &[point(LISTENER)], &options)
         .unwrap()
         .remove(0)
@@ -300,20 +308,11 @@ fn a_seed_gives_the_same_tail_on_any_thread_count() {
 #[test]
 fn lossless_diffuse_room_holds_its_energy() {
     let scene = shoebox(0.0, 1.0);
-    let options = SimulationOptions {
-        max_order: 2,
-        bands_hz: vec![1000.0],
-        air: None,
-        tail: Tail::Stochastic(TailOptions {
-            max_length_s: 1.0,
-            ..Default::default()
-        }),
+    let tail = Tail::Stochastic(TailOptions {
+        max_length_s: 1.0,
         ..Default::default()
-    };
-    let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
-    let r = simulate(&scene, &[point(SOURCE)], &[point(LISTENER)], &options)
-        .unwrap()
-        .remove(0);
+    });
+    let r = respond(&scene, 2, tail);
     let volume: f64 = ROOM.iter().product();
     let (t1, t2) = (0.3, 0.95);
     let got: f64 = r
@@ -338,7 +337,6 @@ fn binaural_tails_are_decorrelated_and_as_loud_as_mono() {
             channels,
             ..Default::default()
         };
-        let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
         simulate(&scene, &[point(SOURCE)], &[point(LISTENER)], &options)
             .unwrap()
             .remove(0)
@@ -378,7 +376,6 @@ fn the_tail_stops_at_the_deadline_and_when_cancelled() {
         }),
         ..Default::default()
     };
-    let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
     let (s, l) = (point(SOURCE), point(LISTENER));
     // The whole tail takes tens of seconds; the deadline cuts it short.
     let start = Instant::now();
@@ -646,18 +643,14 @@ fn few_rays_give_a_specular_rooms_late_energy() {
 #[test]
 fn a_listeners_tail_does_not_depend_on_the_others_asked_with_it() {
     let scene = shoebox(0.2, 0.6);
-    let options = SimulationOptions {
-        max_order: 2,
-        bands_hz: vec![1000.0],
-        air: None,
-        tail: Tail::Stochastic(TailOptions {
+    let options = options(
+        2,
+        Tail::Stochastic(TailOptions {
             rays: 2048,
             max_length_s: 1.0,
             ..Default::default()
         }),
-        ..Default::default()
-    };
-    let point = |p: [f64; 3]| Vec3::from_array(p.map(|v| v as f32));
+    );
     let (source, a, b) = (point(SOURCE), point(LISTENER), Vec3::new(3.0, 4.5, 1.0));
     let alone = simulate(&scene, &[source], &[a], &options).unwrap();
     let second = simulate(&scene, &[source], &[b, a], &options).unwrap();
