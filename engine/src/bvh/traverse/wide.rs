@@ -180,13 +180,14 @@ pub fn walk_pruned<W: WideTree, T: NodeTest>(
                     }
                     top -= 1;
                     // SAFETY: entries below `top` were written above.
-                    let entry = unsafe { stack[top].assume_init() };
-                    if entry.1 > bound {
-                        continue;
-                    }
-                    entry
+                    unsafe { stack[top].assume_init() }
                 }
             };
+            // A test need not prune by the bound itself, and a leaf may
+            // have lowered it since the entry was pushed.
+            if key > bound {
+                continue;
+            }
             if index & LEAF_REF == 0 {
                 if !open(index as usize, key, &mut bound) {
                     continue;
