@@ -600,6 +600,47 @@ mod tests {
         assert!(toi_vf(&q).is_some());
     }
 
+    /// `at` repeats the operations of `coordinate` (the rounding bounds
+    /// count them), so the two agree to the bit at every corner, in f64
+    /// and in double-double, on random boxes of random queries.
+    #[test]
+    fn one_corner_is_computed_as_the_eight_are() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut point = || DVec3::new(rng.gen(), rng.gen(), rng.gen()) * 2.0 - 1.0;
+        fn agree<P: Primitives>(p: &P, d: &Domain) {
+            for axis in 0..3 {
+                let (c64, cdd) = (
+                    p.coordinate::<f64>(d, axis),
+                    p.coordinate::<TwoFloat>(d, axis),
+                );
+                for i in 0..8 {
+                    let (t, u, v) = corner(d, i);
+                    assert_eq!(p.at::<f64>(axis, t, u, v).to_bits(), c64[i].to_bits());
+                    let dd: TwoFloat = p.at(axis, t, u, v);
+                    assert_eq!((dd.hi(), dd.lo()), (cdd[i].hi(), cdd[i].lo()));
+                }
+            }
+        }
+        for _ in 0..200 {
+            let range = |a: f64, b: f64| [a.min(b), a.max(b)];
+            let d: Domain = [0; 3].map(|_| {
+                let (a, b) = (point().x.abs(), point().y.abs());
+                range(a, b)
+            });
+            let vf = VertexFace {
+                vertex: [point(), point()],
+                face: [[point(), point()], [point(), point()], [point(), point()]],
+            };
+            agree(&vf, &d);
+            let ee = EdgeEdge {
+                a: [[point(), point()], [point(), point()]],
+                b: [[point(), point()], [point(), point()]],
+            };
+            agree(&ee, &d);
+        }
+    }
+
     /// Edge a's end passes edge b's end 2^-54 apart in z, at t = 0.5,
     /// where f64 rounds the gap to zero (1 - 2^-54 rounds to 1): a near
     /// miss, as in the benchmark's cliff edges. The same end kept at z = 1
