@@ -607,7 +607,7 @@ mod tests {
     fn one_corner_is_computed_as_the_eight_are() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let mut point = || DVec3::new(rng.gen(), rng.gen(), rng.gen()) * 2.0 - 1.0;
+        let mut point = || DVec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0;
         fn agree<P: Primitives>(p: &P, d: &Domain) {
             for axis in 0..3 {
                 let (c64, cdd) = (
