@@ -1,12 +1,12 @@
 //! `POST /v1/scenes/{id}/shadows`: how much of a light each pixel of a
-//! camera's view receives (hard shadows of a point light, soft shadows of
-//! an area light), as a grey PNG or as JSON; and
+//! camera's view receives (hard shadows of a point or directional light,
+//! soft shadows of an area light), as a grey PNG or as JSON; and
 //! `POST /v1/scenes/{id}/visibility`: how much of a light each of a list
 //! of points (seats, listeners) sees.
 
 use frusta_engine::shadows::{
-    AreaLight, AreaShape, Camera, Light, Method, PointLight, PointVisibility, ShadowImage,
-    ShadowOptions, ShadowStats,
+    AreaLight, AreaShape, Camera, DirectionalLight, Light, Method, PointLight, PointVisibility,
+    ShadowImage, ShadowOptions, ShadowStats, SpotLight,
 };
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -71,15 +71,29 @@ fn fov() -> f32 {
     60.0
 }
 
-/// A light at `position`: a point (the default, hard shadows), or with a
-/// `shape` an area light centred there (soft shadows).
+/// A light at `position`: a point (the default, hard shadows), a `spot`
+/// (a point shining into the cone of `half_angle_deg` around `direction`),
+/// or with an area `shape` an area light centred there (soft shadows); or
+/// a `directional` light (the sun: hard shadows), which has a `direction`
+/// and no position.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LightSpec {
-    #[schema(value_type = Vector3)]
-    pub position: [f32; 3],
+    /// Every light but a directional one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Vector3>)]
+    pub position: Option<[f32; 3]>,
     #[serde(default)]
     pub shape: LightShape,
+    /// Directional: the direction its light travels, from the light into
+    /// the scene; spot: its cone's axis (any length but zero).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<Vector3>)]
+    pub direction: Option<[f32; 3]>,
+    /// Spot: the angle between its axis and its cone's edge, degrees, in
+    /// `(0, 180]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half_angle_deg: Option<f32>,
     /// Rectangle: the half edges, `position + a u + b v` for `a, b` in
     /// `[-1, 1]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -102,6 +116,8 @@ pub struct LightSpec {
 pub enum LightShape {
     #[default]
     Point,
+    Spot,
+    Directional,
     Rectangle,
     Disk,
     Sphere,
@@ -111,8 +127,26 @@ impl LightSpec {
     /// A point light.
     pub fn point(position: [f32; 3]) -> Self {
         Self {
-            position,
-            shape: LightShape::Point,
+            position: Some(position),
+            ..Self::of(LightShape::Point)
+        }
+    }
+
+    /// A directional light: its light travels along `direction`.
+    pub fn directional(direction: [f32; 3]) -> Self {
+        Self {
+            direction: Some(direction),
+            ..Self::of(LightShape::Directional)
+        }
+    }
+
+    /// A light of `shape` with no field set.
+    fn of(shape: LightShape) -> Self {
+        Self {
+            position: None,
+            shape,
+            direction: None,
+            half_angle_deg: None,
             u: None,
             v: None,
             normal: None,
@@ -122,7 +156,6 @@ impl LightSpec {
 
     /// The engine's light, or what is missing or out of place.
     pub fn engine(&self) -> Result<Light, String> {
-        let centre = Vec3::from_array(self.position);
         let need = |v: Option<[f32; 3]>, what: &str| {
             v.map(Vec3::from_array)
                 .ok_or(format!("a {:?} light needs `{what}`", self.shape))
@@ -132,16 +165,21 @@ impl LightSpec {
                 .ok_or(format!("a {:?} light needs `radius`", self.shape))
         };
         let used: &[(&str, bool)] = &[
+            ("position", self.position.is_some()),
+            ("direction", self.direction.is_some()),
+            ("half_angle_deg", self.half_angle_deg.is_some()),
             ("u", self.u.is_some()),
             ("v", self.v.is_some()),
             ("normal", self.normal.is_some()),
             ("radius", self.radius.is_some()),
         ];
         let allowed: &[&str] = match self.shape {
-            LightShape::Point => &[],
-            LightShape::Rectangle => &["u", "v"],
-            LightShape::Disk => &["normal", "radius"],
-            LightShape::Sphere => &["radius"],
+            LightShape::Point => &["position"],
+            LightShape::Spot => &["position", "direction", "half_angle_deg"],
+            LightShape::Directional => &["direction"],
+            LightShape::Rectangle => &["position", "u", "v"],
+            LightShape::Disk => &["position", "normal", "radius"],
+            LightShape::Sphere => &["position", "radius"],
         };
         if let Some((field, _)) = used.iter().find(|(f, set)| *set && !allowed.contains(f)) {
             return Err(format!(
@@ -149,18 +187,35 @@ impl LightSpec {
                 self.shape
             ));
         }
-        let area = |shape| Light::Area(AreaLight { centre, shape });
+        let centre = need(self.position, "position");
+        let area = |shape| {
+            centre
+                .clone()
+                .map(|centre| Light::Area(AreaLight { centre, shape }))
+        };
         Ok(match self.shape {
-            LightShape::Point => Light::Point(PointLight { position: centre }),
+            LightShape::Point => Light::Point(PointLight {
+                position: centre.clone()?,
+            }),
+            LightShape::Spot => Light::Spot(SpotLight {
+                position: centre.clone()?,
+                direction: need(self.direction, "direction")?,
+                half_angle_deg: self
+                    .half_angle_deg
+                    .ok_or("a Spot light needs `half_angle_deg`")?,
+            }),
+            LightShape::Directional => Light::Directional(DirectionalLight {
+                direction: need(self.direction, "direction")?,
+            }),
             LightShape::Rectangle => area(AreaShape::Rectangle {
                 u: need(self.u, "u")?,
                 v: need(self.v, "v")?,
-            }),
+            })?,
             LightShape::Disk => area(AreaShape::Disk {
                 normal: need(self.normal, "normal")?,
                 radius: radius()?,
-            }),
-            LightShape::Sphere => area(AreaShape::Sphere { radius: radius()? }),
+            })?,
+            LightShape::Sphere => area(AreaShape::Sphere { radius: radius()? })?,
         })
     }
 }

@@ -8,13 +8,13 @@ mod common;
 
 use common::object;
 use common::shadow_scenes::{
-    block, box_at_extreme_scales, camera, convex_hull, floor, scene, seen, still, wire_and_slats,
+    block, box_at_extreme_scales, camera, floor, hull_distance, scene, seen, still, wire_and_slats,
 };
 use frusta_engine::bvh::SceneBvh;
 use frusta_engine::geometry::shapes::cube;
 use frusta_engine::geometry::RigidTransform;
 use frusta_engine::shadows::{
-    hard_shadows, Camera, Light, Method, PointLight, ShadowImage, ShadowOptions, ShadowScene,
+    Camera, Light, Method, PointLight, ShadowImage, ShadowOptions, ShadowScene, SpotLight,
 };
 use glam::{DVec2, DVec3, Quat, Vec3};
 
@@ -25,20 +25,11 @@ fn render(
     method: Method,
     size: u32,
 ) -> ShadowImage {
-    let options = ShadowOptions {
-        method,
-        shadow_map_size: size,
-        ..ShadowOptions::default()
-    };
-    hard_shadows(world, camera, &PointLight { position: light }, &options).unwrap()
+    common::shadow_scenes::render(world, camera, &point(light), method, size)
 }
 
-fn wrong(a: &ShadowImage, b: &ShadowImage) -> usize {
-    a.visibility
-        .iter()
-        .zip(&b.visibility)
-        .filter(|(x, y)| x != y)
-        .count()
+fn point(position: Vec3) -> Light {
+    Light::Point(PointLight { position })
 }
 
 /// Selective against full: no pixel may differ. Returns both and the plain
@@ -49,40 +40,7 @@ fn check(
     light: Vec3,
     size: u32,
 ) -> (ShadowImage, ShadowImage, usize) {
-    let full = render(world, camera, light, Method::Full, size);
-    let selective = render(world, camera, light, Method::Selective, size);
-    let plain = render(world, camera, light, Method::ShadowMap, size);
-    assert_eq!(
-        wrong(&selective, &full),
-        0,
-        "selective differs from full ray tracing"
-    );
-    let plain_wrong = wrong(&plain, &full);
-    let shadowed = full.visibility.iter().filter(|v| **v == 0.0).count();
-    let lit = full.visibility.len() - shadowed;
-    eprintln!(
-        "{} x {}: {shadowed} shadowed, {lit} lit or empty; selective traced {:.1}% of {} receivers; shadow map wrong on {}",
-        camera.width,
-        camera.height,
-        100.0 * selective.stats.pip_fraction(),
-        full.stats.receivers,
-        plain_wrong
-    );
-    (selective, full, plain_wrong)
-}
-
-/// Signed distance of `p` outside the convex hull of `points` (negative
-/// inside).
-fn hull_distance(points: &[DVec2], p: DVec2) -> f64 {
-    let hull = convex_hull(points);
-    // Counter-clockwise hull: outside is where any edge sees p on its
-    // right.
-    (0..hull.len())
-        .map(|i| {
-            let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
-            -(b - a).perp_dot(p - a) / a.distance(b)
-        })
-        .fold(f64::NEG_INFINITY, f64::max)
+    common::shadow_scenes::check(world, camera, &point(light), size)
 }
 
 #[test]
@@ -375,5 +333,74 @@ fn auto_uses_the_light_map_only_where_it_pays() {
             auto.stats
         );
         assert_eq!(auto.stats.light_map_ms > 0.0, pays);
+    }
+}
+
+#[test]
+fn a_spot_light_shadows_as_its_point_light_inside_its_cone_and_darkens_outside() {
+    let world = scene(vec![
+        still("floor", floor(4.0, 0.0, 6)),
+        still(
+            "box",
+            block(Vec3::new(0.5, 0.4, 0.3), Vec3::new(0.2, -0.1, 1.2), 2),
+        ),
+    ]);
+    let cam = camera(Vec3::new(0.5, -5.0, 3.0), Vec3::new(0.0, 0.0, 0.3));
+    let position = Vec3::new(0.6, 0.3, 3.5);
+    let direction = Vec3::new(-0.2, -0.3, -1.0);
+    let half_angle_deg = 35.0f32;
+    let spot = Light::Spot(SpotLight {
+        position,
+        direction,
+        half_angle_deg,
+    });
+    let (_, full, _) = common::shadow_scenes::check(&world, &cam, &spot, 256);
+    let (_, point_full, _) = check(&world, &cam, position, 256);
+    let g = ShadowScene::new(&world).gbuffer(&cam).unwrap();
+    let (mut inside, mut outside) = (0, 0);
+    for ((r, v), p) in g
+        .receivers
+        .iter()
+        .zip(&full.visibility)
+        .zip(&point_full.visibility)
+    {
+        let Some(r) = r else { continue };
+        let out = r.point.as_dvec3() - position.as_dvec3();
+        let angle = out.angle_between(direction.as_dvec3()).to_degrees();
+        if (angle - f64::from(half_angle_deg)).abs() < 1e-4 {
+            continue;
+        }
+        if angle < f64::from(half_angle_deg) {
+            assert_eq!(v, p, "inside the cone at {:?}", r.point);
+            inside += 1;
+        } else {
+            assert_eq!(*v, 0.0, "outside the cone at {:?}", r.point);
+            outside += 1;
+        }
+    }
+    assert!(
+        inside > 5000 && outside > 5000,
+        "{inside} inside, {outside} outside"
+    );
+}
+
+#[test]
+fn a_spot_light_of_no_cone_or_direction_is_refused() {
+    let world = scene(vec![still("floor", floor(1.0, 0.0, 1))]);
+    let cam = camera(Vec3::new(0.0, -2.0, 1.0), Vec3::ZERO);
+    for (direction, half_angle_deg) in [
+        (Vec3::NEG_Z, 0.0),
+        (Vec3::NEG_Z, 181.0),
+        (Vec3::NEG_Z, f32::NAN),
+        (Vec3::ZERO, 30.0),
+    ] {
+        let spot = Light::Spot(SpotLight {
+            position: Vec3::Z,
+            direction,
+            half_angle_deg,
+        });
+        let options = ShadowOptions::default();
+        let r = ShadowScene::new(&world).shadows(&world, &cam, &spot, &options);
+        assert!(r.is_err(), "{direction} {half_angle_deg}");
     }
 }

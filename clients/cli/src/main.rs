@@ -73,7 +73,7 @@ enum Command {
     /// Which triangles touch, come within a distance, or meet while objects
     /// move, here or (with `--scene-id`) on the server.
     Collide(Box<collide::CollideArgs>),
-    /// Where a point light reaches in a camera's view, as a PNG, here or
+    /// Where a light (point, directional or area) reaches in a camera's view, as a PNG, here or
     /// (with `--scene-id`) on the server.
     Shadows(Box<shadows::ShadowArgs>),
     /// The server's scenes (needs `--server`).

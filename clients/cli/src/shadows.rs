@@ -31,6 +31,8 @@ pub enum Method {
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum Shape {
     Point,
+    Spot,
+    Directional,
     Rectangle,
     Disk,
     Sphere,
@@ -64,14 +66,25 @@ pub struct ShadowArgs {
     width: u32,
     #[arg(long, default_value_t = 480)]
     height: u32,
-    /// Light position `X,Y,Z` (an area light's centre).
+    /// Light position `X,Y,Z` (an area light's centre; a directional
+    /// light has none).
     #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
-    light: Vec3,
-    /// `point` (hard shadows), or an area light: `rectangle` (needs
+    light: Option<Vec3>,
+    /// `point` (hard shadows), `spot` (a point shining into a cone: needs
+    /// `--light-direction`, `--light-half-angle`), `directional` (the sun,
+    /// hard shadows: needs `--light-direction`, no `--light`), or an area
+    /// light: `rectangle` (needs
     /// `--light-u`, `--light-v`), `disk` (`--light-normal`,
     /// `--light-radius`), `sphere` (`--light-radius`).
     #[arg(long, value_enum, default_value = "point")]
     light_shape: Shape,
+    /// Directional: the direction its light travels; spot: its cone's
+    /// axis, `X,Y,Z`.
+    #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
+    light_direction: Option<Vec3>,
+    /// Spot: the angle between its axis and its cone's edge, degrees.
+    #[arg(long)]
+    light_half_angle: Option<f32>,
     /// Rectangle: half edge `X,Y,Z`.
     #[arg(long, value_parser = crate::vec3::parse, allow_hyphen_values = true)]
     light_u: Option<Vec3>,
@@ -114,6 +127,8 @@ impl ShadowArgs {
             light: LightSpec {
                 shape: match self.light_shape {
                     Shape::Point => LightShape::Point,
+                    Shape::Spot => LightShape::Spot,
+                    Shape::Directional => LightShape::Directional,
                     Shape::Rectangle => LightShape::Rectangle,
                     Shape::Disk => LightShape::Disk,
                     Shape::Sphere => LightShape::Sphere,
@@ -122,7 +137,9 @@ impl ShadowArgs {
                 v: self.light_v.map(|v| v.to_array()),
                 normal: self.light_normal.map(|v| v.to_array()),
                 radius: self.light_radius,
-                ..LightSpec::point(self.light.to_array())
+                position: self.light.map(|v| v.to_array()),
+                direction: self.light_direction.map(|v| v.to_array()),
+                half_angle_deg: self.light_half_angle,
             },
             method: match self.method {
                 Method::Auto => ShadowMethod::Auto,

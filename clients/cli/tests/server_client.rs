@@ -405,8 +405,18 @@ const PANEL_ROOM: &str = r#"{
 /// bytes and returns their grey levels; `broken`, the view with a flaw,
 /// must fail naming `flaw`.
 fn shadows_here_and_there(view: &[&str], broken: &[&str], flaw: &str) -> Vec<u8> {
+    shadows_of_scene_here_and_there(PANEL_ROOM, view, broken, flaw)
+}
+
+/// [`shadows_here_and_there`] of the scene document `scene`.
+fn shadows_of_scene_here_and_there(
+    scene: &str,
+    view: &[&str],
+    broken: &[&str],
+    flaw: &str,
+) -> Vec<u8> {
     let server = Server::start();
-    let doc = server.file("panel-room.json", PANEL_ROOM);
+    let doc = server.file("scene.json", scene);
     let id = stdout(&server.frusta(&["scenes", "upload", path_str(&doc)]));
     let (here, there) = (
         server.dir.0.join("here.png"),
@@ -481,5 +491,30 @@ fn soft_shadows_draw_the_same_png_here_and_on_the_server() {
     assert!(
         pixels.iter().any(|p| *p > 0 && *p < 255),
         "the disk casts a penumbra"
+    );
+}
+
+#[test]
+fn sunlit_shadows_draw_the_same_png_here_and_on_the_server() {
+    // The panel over a floor, open to the sky.
+    let yard = PANEL_ROOM.replace(
+        r#""mesh": {"box_room": {"min": [0, 0, 0], "max": [10, 6, 3]}}"#,
+        r#""mesh": {"vertices": [[0, 0, 0], [10, 0, 0], [10, 6, 0], [0, 6, 0]],
+                    "triangles": [[0, 1, 2], [0, 2, 3]]}"#,
+    );
+    let sun = [
+        "--light-shape",
+        "directional",
+        "--light-direction",
+        "0.6,0.2,-1",
+    ];
+    let view = [&PANEL_VIEW[..5], &sun, &PANEL_VIEW[7..]].concat();
+    assert_ne!(yard, PANEL_ROOM);
+    // A directional light has no position.
+    let broken = [&PANEL_VIEW[..7], &sun, &PANEL_VIEW[7..]].concat();
+    let pixels = shadows_of_scene_here_and_there(&yard, &view, &broken, "position");
+    assert!(
+        pixels.contains(&0) && pixels.contains(&255),
+        "the panel casts a shadow in the sun"
     );
 }

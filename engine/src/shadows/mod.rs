@@ -3,7 +3,8 @@
 //!
 //! A shadow query sees the scene through a [`Camera`]: the visible surface
 //! point of every pixel (the [`GBuffer`], rasterised) receives light from a
-//! [`PointLight`] when the segment between them is clear. Three methods
+//! [`PointLight`] when the segment between them is clear, or from a
+//! [`DirectionalLight`] when the ray against its direction is. Three methods
 //! answer it:
 //! - [`Method::Full`] traces one shadow ray per pixel: the reference;
 //! - [`Method::ShadowMap`] reads a plain depth map from the light: fast, and
@@ -44,6 +45,7 @@
 
 mod area;
 mod camera;
+mod eye;
 pub mod light_map;
 mod occluders;
 mod penumbra;
@@ -79,10 +81,80 @@ impl PointLight {
     }
 }
 
-/// Any light: a point casts hard shadows, an area light soft ones.
+/// A directional light (the sun): parallel light from infinitely far
+/// away, travelling along `direction`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectionalLight {
+    /// The direction the light travels (from the light into the scene);
+    /// any length but zero.
+    pub direction: Vec3,
+}
+
+impl DirectionalLight {
+    /// The unit direction, if `direction` is one (finite, not zero).
+    pub fn unit(&self) -> Option<Vec3> {
+        unit_direction(self.direction)
+    }
+
+    pub fn check(&self) -> Result<()> {
+        check_direction(self.direction)
+    }
+}
+
+/// A spot light: a point light shining only into a cone.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpotLight {
+    pub position: Vec3,
+    /// The cone's axis, the way it shines; any length but zero.
+    pub direction: Vec3,
+    /// The angle between the axis and the cone's edge, degrees, in
+    /// `(0, 180]` (180: a point light).
+    pub half_angle_deg: f32,
+}
+
+impl SpotLight {
+    pub fn check(&self) -> Result<()> {
+        PointLight {
+            position: self.position,
+        }
+        .check()?;
+        check_direction(self.direction)?;
+        if !(self.half_angle_deg > 0.0 && self.half_angle_deg <= 180.0) {
+            return Err(Error::InvalidOption {
+                field: "light.half_angle_deg".into(),
+                reason: format!("{} must lie in (0, 180]", self.half_angle_deg),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// `direction` scaled to unit length, if it is a direction (finite, not
+/// zero).
+fn unit_direction(direction: Vec3) -> Option<Vec3> {
+    // Scaled first, so that no length squared overflows or vanishes.
+    let largest = direction.abs().max_element();
+    let unit = (direction / largest).normalize_or_zero();
+    (largest.is_finite() && unit != Vec3::ZERO).then_some(unit)
+}
+
+fn check_direction(direction: Vec3) -> Result<()> {
+    match unit_direction(direction) {
+        Some(_) => Ok(()),
+        None => Err(Error::InvalidOption {
+            field: "light.direction".into(),
+            reason: format!("{direction:?} is not a direction"),
+        }),
+    }
+}
+
+/// Any light: a point, a spot or a direction casts hard shadows, an area
+/// light soft ones.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     Point(PointLight),
+    Spot(SpotLight),
+    Directional(DirectionalLight),
     Area(AreaLight),
 }
 
@@ -90,6 +162,8 @@ impl Light {
     pub fn check(&self) -> Result<()> {
         match self {
             Light::Point(l) => l.check(),
+            Light::Spot(l) => l.check(),
+            Light::Directional(l) => l.check(),
             Light::Area(l) => l.check(),
         }
     }

@@ -6,6 +6,7 @@ use std::time::Instant;
 use glam::Vec3;
 
 use super::camera::{Camera, GBuffer};
+use super::eye::Eye;
 use super::occluders::{Occluders, Topology};
 use super::selective::{ms, resolve, ShadowStats, Target};
 use super::{AreaLight, Light, PointLight, ShadowOptions};
@@ -159,7 +160,27 @@ impl ShadowScene {
                 &self.occluders,
                 &self.topology,
                 world,
-                l.position,
+                Eye::point(l.position),
+                layout.0 * layout.1,
+                target,
+                options,
+                stats,
+            ),
+            Light::Spot(l) => resolve(
+                &self.occluders,
+                &self.topology,
+                world,
+                Eye::spot(l),
+                layout.0 * layout.1,
+                target,
+                options,
+                stats,
+            ),
+            Light::Directional(l) => resolve(
+                &self.occluders,
+                &self.topology,
+                world,
+                Eye::parallel(l.unit().expect("checked on entry"), world),
                 layout.0 * layout.1,
                 target,
                 options,

@@ -6,6 +6,7 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use super::eye::Eye;
 use super::light_map::{locate, LightMap, Texel, RAY_ERROR};
 use super::occluders::{Occluders, Topology};
 use super::{Method, ShadowOptions};
@@ -82,12 +83,20 @@ impl Target {
     /// Whether light from `x` can reach the target: in the air always, on
     /// a surface when `x` lies strictly on the side it is seen from.
     pub fn faces(&self, x: Vec3) -> bool {
-        self.front == Vec3::ZERO
-            || self
-                .front
-                .as_dvec3()
-                .dot(x.as_dvec3() - self.point.as_dvec3())
-                > 0.0
+        self.receives(x.as_dvec3() - self.point.as_dvec3())
+    }
+
+    /// Whether light arriving from `to_light` (a vector from the target)
+    /// can reach it.
+    fn receives(&self, to_light: DVec3) -> bool {
+        self.front == Vec3::ZERO || self.front.as_dvec3().dot(to_light) > 0.0
+    }
+
+    /// Whether the light of `eye` can reach the target: it shines on it,
+    /// from the side it is seen from.
+    pub fn faces_eye(&self, eye: &Eye) -> bool {
+        let x = self.point.as_dvec3();
+        eye.shines_on(x) && self.receives(eye.towards_light(x))
     }
 }
 
@@ -95,22 +104,22 @@ pub(super) fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-/// The visibility (1 or 0; 1 where there is no target) of the light from
-/// targets `0..n` by `options.method`; the light map and its proofs need
-/// `topology`, the plain shadow map does not.
+/// The visibility (1 or 0; 1 where there is no target) of the light of
+/// `eye` from targets `0..n` by `options.method`; the light map and its
+/// proofs need `topology`, the plain shadow map does not.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn resolve(
     occluders: &Occluders,
     topology: &Topology,
     world: &SceneBvh,
-    light: Vec3,
+    eye: Eye,
     n: usize,
     target: impl Fn(usize) -> Option<Target> + Sync,
     options: &ShadowOptions,
     stats: &mut ShadowStats,
 ) -> Vec<f32> {
     let traced = |t: &Target| {
-        if !t.faces(light) || world.any_hit(&shadow_ray(t.point, light)) {
+        if !t.faces_eye(&eye) || world.any_hit(&eye.shadow_ray(t.point)) {
             0.0
         } else {
             1.0
@@ -141,29 +150,35 @@ pub(super) fn resolve(
     let t = Instant::now();
     let plain = method == Method::ShadowMap;
     let size = options.shadow_map_size;
-    let needed = (0..n)
-        .into_par_iter()
-        .filter_map(&target)
-        .fold(
-            || [false; 6],
-            |mut acc, t| {
-                acc[Spot::of(t.point, light, size).face] = true;
-                acc
-            },
-        )
-        .reduce(|| [false; 6], |a, b| std::array::from_fn(|i| a[i] | b[i]));
+    // The cube faces a point light's targets fall on (a directional light
+    // has one face).
+    let needed = match eye {
+        Eye::Point { light, .. } => (0..n)
+            .into_par_iter()
+            .filter_map(&target)
+            .filter(|t| eye.shines_on(t.point.as_dvec3()))
+            .fold(
+                || [false; 6],
+                |mut acc, t| {
+                    acc[locate(t.point.as_dvec3() - light.as_dvec3(), size).0] = true;
+                    acc
+                },
+            )
+            .reduce(|| [false; 6], |a, b| std::array::from_fn(|i| a[i] | b[i])),
+        Eye::Parallel { .. } => [true, false, false, false, false, false],
+    };
     let topology = (!plain).then_some(topology);
-    let map = LightMap::build(occluders, topology, light.as_dvec3(), size, needed);
+    let map = LightMap::build(occluders, topology, &eye, size, needed);
     stats.light_map_ms = ms(t);
     let t = Instant::now();
     let proofs: Vec<Option<Proof>> = (0..n)
         .into_par_iter()
         .map(|i| {
             let target = target(i)?;
-            if !target.faces(light) {
+            if !target.faces_eye(&eye) {
                 return Some(Proof::Shadowed);
             }
-            let spot = Spot::of(target.point, light, size);
+            let spot = Spot::of(target.point, &map);
             Some(if plain {
                 plain_test(&map, &spot)
             } else {
@@ -202,28 +217,23 @@ fn light_map_pays(receivers: u64, occluders: &Occluders, size: u32) -> bool {
     receivers > 15 * triangles as u64 + texels
 }
 
-/// Where a point falls on the light map: face, texel and depth.
-struct Spot {
-    face: usize,
-    x: u32,
-    y: u32,
-    z: f64,
-}
+/// Where a point falls on the light map: face, texel and depth (`None`
+/// off a directional light's face).
+struct Spot(Option<(usize, u32, u32, f64)>);
 
 impl Spot {
-    fn of(point: Vec3, light: Vec3, size: u32) -> Self {
-        let (face, x, y, z) = locate(point.as_dvec3() - light.as_dvec3(), size);
-        let last = size - 1;
-        Self {
-            face,
-            x: (x.floor().max(0.0) as u32).min(last),
-            y: (y.floor().max(0.0) as u32).min(last),
-            z,
-        }
+    fn of(point: Vec3, map: &LightMap) -> Self {
+        let last = map.size - 1;
+        Self(map.locate(point.as_dvec3()).map(|(face, x, y, z)| {
+            let texel = |c: f64| (c.floor().max(0.0) as u32).min(last);
+            (face, texel(x), texel(y), z)
+        }))
     }
 
-    fn texel<'a>(&self, map: &'a LightMap) -> Option<&'a Texel> {
-        Some(map.faces[self.face].as_ref()?.at(self.x, self.y))
+    /// The texel and the point's depth.
+    fn texel<'a>(&self, map: &'a LightMap) -> Option<(&'a Texel, f64)> {
+        let (face, x, y, z) = self.0?;
+        Some((map.faces[face].as_ref()?.at(x, y), z))
     }
 }
 
@@ -234,19 +244,14 @@ fn prove(map: &LightMap, spot: &Spot, target: &Target) -> Proof {
     if map.unknown {
         return Proof::Unknown;
     }
-    let Some(f) = spot.texel(map) else {
+    let Some((f, z)) = spot.texel(map) else {
         return Proof::Unknown;
     };
-    let z = spot.z;
     let x = target.point.as_dvec3();
     let scale = map.scale.max(x.abs().max_element());
-    let slack = 1e-5 * z + RAY_ERROR * scale;
-    let t_min = SHADOW_T_MIN as f64;
-    // Depth falls linearly from z at the receiver to 0 at the light: the
-    // traced range [t_min, 1 - t_min] spans depths z t_min .. z (1 - t_min).
-    if f.cover_far as f64 * (z * (1.0 - t_min) - slack) > 1.0
-        && (f.cover_near as f64) * (z * t_min + slack) < 1.0
-    {
+    let slack = 1e-5 * z.abs() + RAY_ERROR * scale;
+    let (lo, hi) = map.eye.traced_depths(z);
+    if f.cover_far as f64 * (hi - slack) > 1.0 && (f.cover_near as f64) * (lo + slack) < 1.0 {
         return Proof::Shadowed;
     }
     let beyond = |near: f32| (near as f64) * (z + slack) < 1.0;
@@ -277,7 +282,7 @@ fn lit_on_surface(
     part: u32,
     beyond: impl Fn(f32) -> bool,
 ) -> bool {
-    let to_light = map.light - x;
+    let to_light = map.eye.towards_light(x);
     let towards = normal.dot(to_light);
     f.first_part == part
         && f.first_sheet
@@ -290,7 +295,7 @@ fn lit_on_surface(
 /// The plain shadow map's answer, with a relative depth bias.
 fn plain_test(map: &LightMap, spot: &Spot) -> Proof {
     match spot.texel(map) {
-        Some(f) if spot.z * f.centre as f64 > 1.002 => Proof::Shadowed,
+        Some((f, z)) if z * f.centre as f64 > 1.002 => Proof::Shadowed,
         _ => Proof::Lit,
     }
 }

@@ -12,6 +12,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::area::AreaLight;
+use super::eye::Eye;
 use super::light_map::RAY_ERROR;
 use super::penumbra::{any_hit_among, Bounds, Candidate, Cover, Hull, Pool};
 use super::scene::ShadowScene;
@@ -38,7 +39,14 @@ impl ShadowScene {
         if options.method == Method::ShadowMap {
             let centre = light.centre;
             return resolve(
-                occluders, topology, world, centre, n, target, options, stats,
+                occluders,
+                topology,
+                world,
+                Eye::point(centre),
+                n,
+                target,
+                options,
+                stats,
             );
         }
         let per_receiver = (options.samples * options.samples) as u64;

@@ -4,7 +4,7 @@ use frusta_engine::bvh::{BuildOptions, SceneBvh};
 use frusta_engine::geometry::shapes::cube;
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::{Material, Scene, SceneObject};
-use frusta_engine::shadows::{Camera, ShadowImage, ShadowScene};
+use frusta_engine::shadows::{Camera, Light, Method, ShadowImage, ShadowOptions, ShadowScene};
 use glam::{DVec2, Vec3};
 
 use super::{deformed, grid_triangles, object};
@@ -124,4 +124,76 @@ pub fn box_at_extreme_scales() -> Vec<(SceneBvh, Camera, Vec3, f32)> {
         (world, cam, f(Vec3::new(0.3, 0.6, 3.0)), scale)
     })
     .collect()
+}
+
+/// The shadows of `light` through `camera` by `method`, with light-map
+/// faces of `size` texels.
+pub fn render(
+    world: &SceneBvh,
+    camera: &Camera,
+    light: &Light,
+    method: Method,
+    size: u32,
+) -> ShadowImage {
+    let options = ShadowOptions {
+        method,
+        shadow_map_size: size,
+        ..ShadowOptions::default()
+    };
+    ShadowScene::new(world)
+        .shadows(world, camera, light, &options)
+        .unwrap()
+}
+
+/// Pixels where two images differ.
+pub fn wrong(a: &ShadowImage, b: &ShadowImage) -> usize {
+    a.visibility
+        .iter()
+        .zip(&b.visibility)
+        .filter(|(x, y)| x != y)
+        .count()
+}
+
+/// Selective against full: no pixel may differ. Returns both and the plain
+/// shadow map's count of wrong pixels.
+pub fn check(
+    world: &SceneBvh,
+    camera: &Camera,
+    light: &Light,
+    size: u32,
+) -> (ShadowImage, ShadowImage, usize) {
+    let full = render(world, camera, light, Method::Full, size);
+    let selective = render(world, camera, light, Method::Selective, size);
+    let plain = render(world, camera, light, Method::ShadowMap, size);
+    assert_eq!(
+        wrong(&selective, &full),
+        0,
+        "selective differs from full ray tracing"
+    );
+    let plain_wrong = wrong(&plain, &full);
+    let shadowed = full.visibility.iter().filter(|v| **v == 0.0).count();
+    let lit = full.visibility.len() - shadowed;
+    eprintln!(
+        "{} x {}: {shadowed} shadowed, {lit} lit or empty; selective traced {:.1}% of {} receivers; shadow map wrong on {}",
+        camera.width,
+        camera.height,
+        100.0 * selective.stats.pip_fraction(),
+        full.stats.receivers,
+        plain_wrong
+    );
+    (selective, full, plain_wrong)
+}
+
+/// Signed distance of `p` outside the convex hull of `points` (negative
+/// inside).
+pub fn hull_distance(points: &[DVec2], p: DVec2) -> f64 {
+    let hull = convex_hull(points);
+    // Counter-clockwise hull: outside is where any edge sees p on its
+    // right.
+    (0..hull.len())
+        .map(|i| {
+            let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
+            -(b - a).perp_dot(p - a) / a.distance(b)
+        })
+        .fold(f64::NEG_INFINITY, f64::max)
 }

@@ -29,7 +29,8 @@ pub const MAX_SAMPLES: u32 = 8;
 pub const MAX_SAMPLE_RAYS: u64 = 1 << 24;
 
 /// Body: `{"camera": {"position", "look_at", "width", "height", ...},
-/// "light": {"position"[, "shape", ...]}, "method", "samples"}`. Send
+/// "light": {"position"[, "shape", ...]} or {"shape": "directional",
+/// "direction"}, "method", "samples"}`. Send
 /// `Accept: image/png` for a grey image (255 lit, 0 shadowed, the fraction
 /// of an area light seen between), else JSON with the same levels and
 /// stats.
@@ -165,6 +166,57 @@ mod tests {
     }
 
     #[tokio::test]
+    async fn the_sun_and_a_spot_light_cast_shadows_and_selective_equals_full() {
+        // Open to the sky: a floor and the panel over it.
+        let yard = json!({
+            "materials": {"walls": {"absorption": 0.1}},
+            "objects": [
+                {"name": "floor", "material": "walls",
+                 "mesh": {"vertices": [[0, 0, 0], [10, 0, 0], [10, 6, 0], [0, 6, 0]],
+                          "triangles": [[0, 1, 2], [0, 2, 3]]}},
+                {"name": "panel", "material": "walls",
+                 "mesh": {"vertices": [[4, 1, 0.5], [4, 2, 0.5], [4, 2, 2], [4, 1, 2]],
+                          "triangles": [[0, 1, 2], [0, 2, 3]]}}
+            ]
+        });
+        let server = TestServer::new();
+        server
+            .send(post_json("/v1/scenes?id=yard", &yard.to_string()))
+            .await;
+        let mut sun = body(32);
+        sun["light"] = json!({"shape": "directional", "direction": [0.6, 0.2, -1]});
+        let (status, _, selective) = server
+            .send(post_json("/v1/scenes/yard/shadows", &sun.to_string()))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{selective}");
+        sun["method"] = json!("full");
+        let (_, _, full) = server
+            .send(post_json("/v1/scenes/yard/shadows", &sun.to_string()))
+            .await;
+        assert_eq!(selective["visibility"], full["visibility"]);
+        let levels: Vec<u8> = serde_json::from_value(full["visibility"].clone()).unwrap();
+        assert!(levels.contains(&0) && levels.contains(&255));
+        // A spot light over the panel lights a disc of the floor.
+        let mut spot = body(32);
+        spot["light"] = json!({"shape": "spot", "position": [5, 3, 2.8],
+                               "direction": [0, 0, -1], "half_angle_deg": 40});
+        let (status, _, spot) = server
+            .send(post_json("/v1/scenes/yard/shadows", &spot.to_string()))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{spot}");
+        let lit = |doc: &serde_json::Value| {
+            let levels: Vec<u8> = serde_json::from_value(doc["visibility"].clone()).unwrap();
+            levels.iter().filter(|v| **v == 255).count()
+        };
+        assert!(
+            lit(&spot) > 0 && lit(&spot) < lit(&full),
+            "{} {}",
+            lit(&spot),
+            lit(&full)
+        );
+    }
+
+    #[tokio::test]
     async fn a_png_holds_the_same_levels() {
         let server = TestServer::new();
         server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
@@ -216,6 +268,16 @@ mod tests {
         let edgeways_disk = light(
             json!({"position": [5, 3, 2.8], "shape": "disk", "normal": [0, 0, 0], "radius": 1}),
         );
+        let sun_without_direction = light(json!({"shape": "directional"}));
+        let sun_with_position =
+            light(json!({"shape": "directional", "direction": [0, 0, -1], "position": [1, 1, 1]}));
+        let sun_of_no_direction = light(json!({"shape": "directional", "direction": [0, 0, 0]}));
+        let point_without_position = light(json!({}));
+        let spot_without_cone =
+            light(json!({"shape": "spot", "position": [5, 3, 2.8], "direction": [0, 0, -1]}));
+        let spot_of_no_cone = light(
+            json!({"shape": "spot", "position": [5, 3, 2.8], "direction": [0, 0, -1], "half_angle_deg": 0}),
+        );
         let mut many_samples = body(8);
         many_samples["samples"] = json!(super::MAX_SAMPLES + 1);
         let mut no_samples = body(8);
@@ -235,6 +297,12 @@ mod tests {
             (radius_of_a_point, StatusCode::UNPROCESSABLE_ENTITY),
             (flat_sphere, StatusCode::UNPROCESSABLE_ENTITY),
             (edgeways_disk, StatusCode::UNPROCESSABLE_ENTITY),
+            (sun_without_direction, StatusCode::UNPROCESSABLE_ENTITY),
+            (sun_with_position, StatusCode::UNPROCESSABLE_ENTITY),
+            (sun_of_no_direction, StatusCode::UNPROCESSABLE_ENTITY),
+            (point_without_position, StatusCode::UNPROCESSABLE_ENTITY),
+            (spot_without_cone, StatusCode::UNPROCESSABLE_ENTITY),
+            (spot_of_no_cone, StatusCode::UNPROCESSABLE_ENTITY),
             (many_samples, StatusCode::UNPROCESSABLE_ENTITY),
             (no_samples, StatusCode::UNPROCESSABLE_ENTITY),
             (too_many_rays, StatusCode::UNPROCESSABLE_ENTITY),

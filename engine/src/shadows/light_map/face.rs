@@ -55,27 +55,77 @@ pub(crate) fn locate(d: DVec3, size: u32) -> (usize, f64, f64, f64) {
     )
 }
 
+/// How a face's rays run from the light.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum View {
+    /// A cube face around a point light: rays from `light`, image
+    /// coordinates `x / z`.
+    Cube { light: DVec3, face: Face },
+    /// The one face of a directional light: parallel rays along
+    /// `axes[2]` (the light's direction), face coordinates `axes · (v -
+    /// origin)`, image coordinates `x / half_width`. `reach` is the length
+    /// its shadow rays are scaled by (see `Eye::Parallel`).
+    Ortho {
+        origin: DVec3,
+        axes: [DVec3; 3],
+        half_width: f64,
+        reach: f64,
+    },
+}
+
 /// How world points land on a face.
 pub(super) struct Projection {
-    pub light: DVec3,
-    pub face: Face,
+    pub view: View,
     pub size: u32,
     pub near: f64,
     pub scale: f64,
 }
 
 impl Projection {
+    /// World point `v` in face coordinates: image axes, then depth.
+    pub fn frame(&self, v: DVec3) -> DVec3 {
+        match self.view {
+            View::Cube { light, face } => face.frame(v - light),
+            View::Ortho { origin, axes, .. } => {
+                let d = v - origin;
+                DVec3::new(axes[0].dot(d), axes[1].dot(d), axes[2].dot(d))
+            }
+        }
+    }
+
+    /// What image coordinates are face coordinates over, at depth `z`.
+    fn unit(&self, z: f64) -> f64 {
+        match self.view {
+            View::Cube { .. } => z,
+            View::Ortho { half_width, .. } => half_width,
+        }
+    }
+
     pub fn texel(&self, c: DVec3) -> [f64; 2] {
         let half = self.size as f64 * 0.5;
-        [(c.x / c.z + 1.0) * half, (c.y / c.z + 1.0) * half]
+        let w = self.unit(c.z);
+        [(c.x / w + 1.0) * half, (c.y / w + 1.0) * half]
     }
 
     /// Margin in texels for geometry no nearer than depth `z`: the rays'
-    /// rounding `e` moves a point's image `u = x / z` by up to
-    /// `e (1 + |u|) / z` on each axis, and `|u|` reaches the guard `g`.
+    /// rounding `e` moves a point's image `u = x / w` by up to
+    /// `e (1 + |u|) / w` on each axis (`w = z` from a point light, the
+    /// half width across parallel rays), and `|u|` reaches the guard `g`.
     pub fn margin(&self, z: f64) -> f64 {
         let reach = 1.5 * (1.0 + self.guard());
-        BASE_MARGIN + reach * RAY_ERROR * self.scale / z * self.size as f64 * 0.5
+        BASE_MARGIN + reach * RAY_ERROR * self.scale / self.unit(z) * self.size as f64 * 0.5
+    }
+
+    /// How far the light lies from the plane of `tri` (world space), along
+    /// its normal: for a directional light, how far a shadow ray's reach
+    /// takes it from the plane.
+    pub fn light_distance(&self, tri: &[DVec3; 3]) -> f64 {
+        let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+        let along = match self.view {
+            View::Cube { light, .. } => n.dot(light - tri[0]),
+            View::Ortho { axes, reach, .. } => n.dot(axes[2]) * reach,
+        };
+        along.abs() / n.length()
     }
 
     /// The guarded frustum's half-width in image units.
@@ -92,13 +142,13 @@ impl Projection {
 
     /// Plane `k` of [`Self::sides`].
     fn side(&self, e: DVec3, k: usize) -> f64 {
-        let g = self.guard();
+        let g = self.guard() * self.unit(e.z);
         match k {
             0 => e.z - self.near,
-            1 => g * e.z - e.x,
-            2 => g * e.z + e.x,
-            3 => g * e.z - e.y,
-            _ => g * e.z + e.y,
+            1 => g - e.x,
+            2 => g + e.x,
+            3 => g - e.y,
+            _ => g + e.y,
         }
     }
 
@@ -143,9 +193,12 @@ pub(super) struct TriangleRaster {
     corners: [[f64; 2]; 8],
     count: usize,
     pub margin: f64,
-    /// `1/z = plane[0] + plane[1] x + plane[2] y`; zeros for a plane
-    /// through the light, whose corners alone bound it.
-    pub plane: [f64; 3],
+    /// `1/z = plane[0] + plane[1] x + plane[2] y` from a point light (rays
+    /// from a point meet a plane at inverse depths affine in the image),
+    /// `z = ...` across parallel rays (`linear`); zeros for a plane the
+    /// rays run along, whose corners alone bound it.
+    plane: [f64; 3],
+    linear: bool,
     spread: f64,
     /// Inverse depths of the farthest and nearest corner.
     corner_far: f64,
@@ -166,22 +219,39 @@ impl TriangleRaster {
             z_hi = z_hi.max(v.z);
         }
         let margin = p.margin(z_lo);
-        // 1/z on the plane n . e = k is n . (u, v, 1) / k with
-        // u = 2x/size - 1: affine in texel coordinates.
         let normal = (c[1] - c[0]).cross(c[2] - c[0]);
         let k = normal.dot(c[0]);
         let to_unit = 2.0 / p.size as f64;
-        // A plane through the light (or a triangle of no area): its
+        let (plane, linear) = match p.view {
+            // 1/z on the plane n . e = k is n . (u, v, 1) / k with
+            // u = 2x/size - 1: affine in texel coordinates.
+            View::Cube { .. } => (
+                (k != 0.0).then(|| {
+                    [
+                        (normal.z - normal.x - normal.y) / k,
+                        normal.x * to_unit / k,
+                        normal.y * to_unit / k,
+                    ]
+                }),
+                false,
+            ),
+            // z on it is (k - n.x X - n.y Y) / n.z with X = w (2x/size - 1).
+            View::Ortho { half_width: w, .. } => (
+                (normal.z != 0.0).then(|| {
+                    [
+                        (k + (normal.x + normal.y) * w) / normal.z,
+                        -normal.x * w * to_unit / normal.z,
+                        -normal.y * w * to_unit / normal.z,
+                    ]
+                }),
+                true,
+            ),
+        };
+        // A plane the rays run along (or a triangle of no area): its
         // corners alone bound it, the plane bounds nothing.
-        let (plane, spread) = if k != 0.0 {
-            let plane = [
-                (normal.z - normal.x - normal.y) / k,
-                normal.x * to_unit / k,
-                normal.y * to_unit / k,
-            ];
-            (plane, (plane[1].abs() + plane[2].abs()) * (0.5 + margin))
-        } else {
-            ([0.0; 3], f64::INFINITY)
+        let (plane, spread) = match plane {
+            Some(plane) => (plane, (plane[1].abs() + plane[2].abs()) * (0.5 + margin)),
+            None => ([0.0; 3], f64::INFINITY),
         };
         let area: f64 = (0..count)
             .map(|i| {
@@ -209,6 +279,7 @@ impl TriangleRaster {
             margin,
             spread,
             plane,
+            linear,
             corner_far: 1.0 / z_hi,
             corner_near: 1.0 / z_lo,
             edges,
@@ -224,13 +295,37 @@ impl TriangleRaster {
         texel_box(self.corners(), self.margin)
     }
 
+    /// The inverse depth of the triangle's plane on the ray through
+    /// `(cx, cy)` (0 for a plane the rays run along).
+    pub fn inverse_depth_at(&self, cx: f64, cy: f64) -> f64 {
+        let at = self.plane[0] + self.plane[1] * cx + self.plane[2] * cy;
+        match self.linear {
+            true if at > 0.0 => 1.0 / at,
+            true => 0.0,
+            false => at,
+        }
+    }
+
     /// Bounds on the inverse depth of the triangle over the grown texel
     /// centred at `(cx, cy)`, as `f32` (nearest, farthest).
     #[inline]
     pub fn inverse_depths(&self, cx: f64, cy: f64) -> (f32, f32) {
         let at = self.plane[0] + self.plane[1] * cx + self.plane[2] * cy;
-        let near = self.corner_near.min(at + self.spread);
-        let far = self.corner_far.max(at - self.spread);
+        let (plane_near, plane_far) = if self.linear {
+            let (z_lo, z_hi) = (at - self.spread, at + self.spread);
+            (
+                if z_lo > 0.0 {
+                    1.0 / z_lo
+                } else {
+                    f64::INFINITY
+                },
+                if z_hi > 0.0 { 1.0 / z_hi } else { 0.0 },
+            )
+        } else {
+            (at + self.spread, at - self.spread)
+        };
+        let near = self.corner_near.min(plane_near);
+        let far = self.corner_far.max(plane_far);
         // Crossed only by rounding, where the plane's range just touches
         // the corners'.
         (near.max(far) as f32, far.min(near) as f32)
@@ -272,8 +367,10 @@ mod tests {
 
     fn projection() -> Projection {
         Projection {
-            light: DVec3::ZERO,
-            face: Face::new(4),
+            view: View::Cube {
+                light: DVec3::ZERO,
+                face: Face::new(4),
+            },
             size: 64,
             near: 1e-6,
             scale: 1.0,

@@ -1,5 +1,6 @@
-//! The conservative light map of a point light: six cube faces of texels,
-//! each holding what every ray from the light through the texel's square
+//! The conservative light map of a point light (six cube faces of texels)
+//! or of a directional light (one orthographic face across the scene),
+//! each texel holding what every ray from the light through its square
 //! can meet, as bounds that let a pixel be proved lit or shadowed.
 //!
 //! Every triangle is scan converted conservatively (every texel its
@@ -37,9 +38,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 pub(crate) use face::locate;
-use face::{Face, Projection};
+use face::{Face, Projection, View};
 use tiles::Binned;
 
+use super::eye::Eye;
 use super::occluders::{Occluders, Topology, NONE};
 use crate::collision::closest_on_triangle;
 
@@ -77,9 +79,9 @@ fn has_area(t: &[DVec3; 3]) -> bool {
     (t[1] - t[0]).cross(t[2] - t[0]) != DVec3::ZERO
 }
 
-fn facing(t: &[DVec3; 3], light: DVec3, scale: f64) -> Facing {
+fn facing(t: &[DVec3; 3], eye: &Eye, scale: f64) -> Facing {
     let n = (t[1] - t[0]).cross(t[2] - t[0]);
-    let to_light = light - t[0];
+    let to_light = eye.towards_light(t[0]);
     let f = n.dot(to_light);
     let len = n.length() * to_light.length();
     let tolerance = 1e-6 + RAY_ERROR * scale / to_light.length().max(1e-300);
@@ -145,12 +147,14 @@ impl FaceMap {
     }
 }
 
-/// A point light's cube map.
+/// A point light's cube map, or a directional light's one face.
 pub struct LightMap {
-    pub light: DVec3,
+    pub(in crate::shadows) eye: Eye,
     pub size: u32,
-    /// Faces that were asked for.
+    /// Faces that were asked for (a directional light's is the first).
     pub faces: [Option<FaceMap>; 6],
+    /// How points land on a directional light's face.
+    parallel: Option<Projection>,
     /// Some triangle passes so close to the light that the faces cannot
     /// hold it: nothing is proved.
     pub unknown: bool,
@@ -159,38 +163,67 @@ pub struct LightMap {
 }
 
 impl LightMap {
-    /// The faces in `needed` of the light map at `light`, `size` texels a
-    /// side; without `topology` only the plain shadow map (the depth at each
-    /// texel's centre), which needs none.
-    pub(super) fn build(
+    /// The faces in `needed` of the light map of `eye`, `size` texels a
+    /// side (a directional light has one face, always built); without
+    /// `topology` only the plain shadow map (the depth at each texel's
+    /// centre), which needs none.
+    pub(in crate::shadows) fn build(
         occluders: &Occluders,
         topology: Option<&Topology>,
-        light: DVec3,
+        eye: &Eye,
         size: u32,
         needed: [bool; 6],
     ) -> Self {
         let plain = topology.is_none();
-        let scale = occluders.scale.max(light.abs().max_element());
+        let (light, parallel) = match *eye {
+            Eye::Point { light, .. } => (Some(light.as_dvec3()), None),
+            Eye::Parallel { direction, reach } => (
+                None,
+                Some(parallel_view(
+                    occluders,
+                    direction.as_dvec3(),
+                    f64::from(reach),
+                )),
+            ),
+        };
+        let scale = occluders
+            .scale
+            .max(light.map_or(0.0, |l| l.abs().max_element()));
         let near = 1e-6 * scale.max(1e-30);
+        let needed = if parallel.is_some() {
+            std::array::from_fn(|i| i == 0)
+        } else {
+            needed
+        };
         // A point outside a face's guarded frustum at depth z reaches the
         // face only when its rounding, 3 e / z radians, spans the guard.
         let reach = (RAY_ERROR * scale * 3.0 * size as f64 / GUARD_TEXELS).max(near) * 2.0;
         let unknown = !plain
-            && occluders.objects.par_iter().any(|o| {
-                o.tris.iter().any(|t| {
-                    let lo = t[0].min(t[1]).min(t[2]);
-                    let hi = t[0].max(t[1]).max(t[2]);
-                    (lo - light).max_element() <= reach
-                        && (light - hi).max_element() <= reach
-                        && (!has_area(t) || closest_on_triangle(light, *t).distance(light) <= reach)
+            && light.is_some_and(|light| {
+                occluders.objects.par_iter().any(|o| {
+                    o.tris.iter().any(|t| {
+                        let lo = t[0].min(t[1]).min(t[2]);
+                        let hi = t[0].max(t[1]).max(t[2]);
+                        (lo - light).max_element() <= reach
+                            && (light - hi).max_element() <= reach
+                            && (!has_area(t)
+                                || closest_on_triangle(light, *t).distance(light) <= reach)
+                    })
                 })
             });
+        let view = |i: usize| match light {
+            Some(light) => View::Cube {
+                light,
+                face: Face::new(i),
+            },
+            None => parallel.expect("an eye that is not a point is parallel"),
+        };
         let facings: Vec<Vec<Facing>> = occluders
             .objects
             .par_iter()
             .map(|o| {
                 let s = o.scale.max(scale);
-                o.tris.iter().map(|t| facing(t, light, s)).collect()
+                o.tris.iter().map(|t| facing(t, eye, s)).collect()
             })
             .collect();
         let mut faces: [Option<FaceMap>; 6] = Default::default();
@@ -199,12 +232,10 @@ impl LightMap {
                 .into_par_iter()
                 .filter(|&i| needed[i])
                 .map(|i| {
-                    let face = Face::new(i);
                     let mut binned = Binned::new(size);
                     for (o, obj) in occluders.objects.iter().enumerate() {
                         let p = Projection {
-                            light,
-                            face,
+                            view: view(i),
                             size,
                             near,
                             scale: obj.scale.max(scale),
@@ -233,11 +264,70 @@ impl LightMap {
             }
         }
         Self {
-            light,
+            eye: *eye,
             size,
             faces,
+            parallel: parallel.map(|view| Projection {
+                view,
+                size,
+                near,
+                scale,
+            }),
             unknown,
             scale,
         }
+    }
+
+    /// Where world point `x` falls on the map: face, continuous texel
+    /// coordinates and depth; `None` off a directional light's face.
+    pub(in crate::shadows) fn locate(&self, x: DVec3) -> Option<(usize, f64, f64, f64)> {
+        match (&self.eye, &self.parallel) {
+            (Eye::Point { light, .. }, _) => Some(locate(x - light.as_dvec3(), self.size)),
+            (Eye::Parallel { .. }, Some(p)) => {
+                let c = p.frame(x);
+                let [tx, ty] = p.texel(c);
+                let size = f64::from(self.size);
+                ((0.0..size).contains(&tx) && (0.0..size).contains(&ty)).then_some((0, tx, ty, c.z))
+            }
+            (Eye::Parallel { .. }, None) => None,
+        }
+    }
+}
+
+/// The face of a directional light travelling along `direction` (unit):
+/// a square across every occluder's shadow column, its depths starting
+/// one scene depth (or width) in front of the nearest occluder, so that
+/// depths over the scene stay within a factor of about two of each other
+/// and the inverse depths the texels hold keep their precision.
+fn parallel_view(occluders: &Occluders, direction: DVec3, reach: f64) -> View {
+    let (e1, e2) = direction.any_orthonormal_pair();
+    let axes = [e1, e2, direction];
+    let (lo, hi) = occluders
+        .objects
+        .iter()
+        .flat_map(|o| o.tris.iter().flatten())
+        .map(|&v| DVec3::new(e1.dot(v), e2.dot(v), direction.dot(v)))
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
+            (lo.min(c), hi.max(c))
+        });
+    if !(lo.cmple(hi).all()) {
+        // Nothing to cast a shadow: any face will do.
+        return View::Ortho {
+            origin: -direction,
+            axes,
+            half_width: 1.0,
+            reach,
+        };
+    }
+    let centre = (lo + hi) * 0.5;
+    let extent = hi - lo;
+    let tiny = 1e-9 * occluders.scale.max(1e-30);
+    let half_width = (0.5 * extent.x.max(extent.y)).max(tiny) * (1.0 + 1e-6);
+    let depth = extent.z.max(2.0 * half_width);
+    View::Ortho {
+        origin: e1 * centre.x + e2 * centre.y + direction * (lo.z - depth),
+        axes,
+        half_width,
+        reach,
     }
 }

@@ -28,9 +28,7 @@ struct Triangle {
 /// can cross that plane past `SHADOW_T_MIN`: the crossing falls at about
 /// the rounding over the light's distance from the plane.
 fn grazing(tri: &[DVec3; 3], p: &Projection) -> bool {
-    let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-    let to_light = n.dot(p.light - tri[0]).abs() / n.length();
-    (to_light * SHADOW_T_MIN as f64)
+    (p.light_distance(tri) * SHADOW_T_MIN as f64)
         .partial_cmp(&(2.0 * RAY_ERROR * p.scale))
         .is_none_or(|o| o.is_le())
 }
@@ -83,7 +81,7 @@ impl Binned {
             if !contour {
                 continue;
             }
-            let Some(ends) = p.clip_segment(e.ends.map(|v| p.face.frame(v - p.light))) else {
+            let Some(ends) = p.clip_segment(e.ends.map(|v| p.frame(v))) else {
                 continue;
             };
             let margin = p.margin(ends[0].z.min(ends[1].z));
@@ -110,7 +108,7 @@ impl Binned {
             // Triangles of no area too: the ray test may still see area in
             // its own rounding; they bound depths and settle nothing.
             let tri = &obj.tris[t as usize];
-            let c = tri.map(|v| p.face.frame(v - p.light));
+            let c = tri.map(|v| p.frame(v));
             let Some(poly) = p.clip(&c) else {
                 continue;
             };
@@ -245,7 +243,7 @@ impl Tile {
                 let d = r.centre_distance(cx, cy);
                 if plain {
                     if d > -r.margin {
-                        let at = r.plane[0] + r.plane[1] * cx + r.plane[2] * cy;
+                        let at = r.inverse_depth_at(cx, cy);
                         out[i].centre = out[i].centre.max(at as f32);
                     }
                     continue;
@@ -319,7 +317,7 @@ impl Tile {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shadows::light_map::face::Face;
+    use crate::shadows::light_map::face::{Face, View};
 
     #[test]
     fn a_triangle_with_the_light_within_rounding_reach_of_its_plane_is_grazing() {
@@ -330,8 +328,10 @@ mod tests {
             DVec3::new(0.0, 5.0, 0.0),
         ];
         let at = |height: f64| Projection {
-            light: DVec3::new(1.0, 2.0, height),
-            face: Face::new(5),
+            view: View::Cube {
+                light: DVec3::new(1.0, 2.0, height),
+                face: Face::new(5),
+            },
             size: 64,
             near: 1e-5,
             scale: 10.0,
