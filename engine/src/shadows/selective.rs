@@ -130,7 +130,9 @@ pub(super) fn resolve(
         .filter(|&i| target(i).is_some())
         .count() as u64;
     let method = match options.method {
-        Method::Auto if light_map_pays(stats.receivers, occluders, options.shadow_map_size) => {
+        Method::Auto
+            if light_map_pays(stats.receivers, occluders, &eye, options.shadow_map_size) =>
+        {
             Method::Selective
         }
         Method::Auto => Method::Full,
@@ -206,14 +208,19 @@ pub(super) fn resolve(
     v
 }
 
-/// Whether a light map is estimated to cost less than the shadow rays it
-/// saves `receivers`. From `frusta-bench shadows` on two cores: a map
-/// costs about 0.6 us per triangle and 40 ns per texel, and saves about
-/// 60 ns per receiver over its ray (a ray of 75 ns, a fifth of them still
-/// traced, 20 ns to classify each).
-fn light_map_pays(receivers: u64, occluders: &Occluders, size: u32) -> bool {
+/// Whether a light map (six faces, or a directional light's one) is
+/// estimated to cost less than the shadow rays it saves `receivers`. From
+/// `frusta-bench shadows` on two cores: a map costs about 0.6 us per
+/// triangle and 40 ns per texel, and saves about 60 ns per receiver over
+/// its ray (a ray of 75 ns, a fifth of them still traced, 20 ns to
+/// classify each).
+fn light_map_pays(receivers: u64, occluders: &Occluders, eye: &Eye, size: u32) -> bool {
     let triangles: usize = occluders.objects.iter().map(|o| o.tris.len()).sum();
-    let texels = 6 * size as u64 * size as u64;
+    let faces = match eye {
+        Eye::Point { .. } => 6,
+        Eye::Parallel { .. } => 1,
+    };
+    let texels = faces * size as u64 * size as u64;
     receivers > 15 * triangles as u64 + texels
 }
 
