@@ -1,22 +1,25 @@
-//! Hard shadows: selective ray tracing against full ray tracing, pixel for
-//! pixel, on scenes whose shadows are hard for a shadow map (thin wires,
-//! slats, grazing light, lights inside geometry, moving lights and
-//! deforming occluders), and full ray tracing against the closed-form
-//! shadow of a box.
+//! Hard shadows of point, spot and directional lights: selective ray
+//! tracing against full ray tracing, pixel for pixel, on scenes whose
+//! shadows are hard for a shadow map (thin wires, slats, grazing light,
+//! lights inside geometry, moving lights and deforming occluders), and
+//! full ray tracing against the closed-form shadow of a box under a point
+//! light and in sunlight.
 
 mod common;
 
 use common::object;
 use common::shadow_scenes::{
-    block, box_at_extreme_scales, camera, floor, hull_distance, scene, seen, still, wire_and_slats,
+    assert_box_shadow, block, box_at_extreme_scales, camera, check, check_over_a_deforming_bar,
+    floor, scene, seen, still, wire_and_slats,
 };
 use frusta_engine::bvh::SceneBvh;
 use frusta_engine::geometry::shapes::cube;
 use frusta_engine::geometry::RigidTransform;
 use frusta_engine::shadows::{
-    Camera, Light, Method, PointLight, ShadowImage, ShadowOptions, ShadowScene, SpotLight,
+    Camera, DirectionalLight, Light, Method, PointLight, ShadowImage, ShadowOptions, ShadowScene,
+    SpotLight,
 };
-use glam::{DVec2, DVec3, Quat, Vec3};
+use glam::{DVec3, Quat, Vec3};
 
 fn render(
     world: &SceneBvh,
@@ -32,85 +35,46 @@ fn point(position: Vec3) -> Light {
     Light::Point(PointLight { position })
 }
 
-/// Selective against full: no pixel may differ. Returns both and the plain
-/// shadow map's count of wrong pixels.
-fn check(
-    world: &SceneBvh,
-    camera: &Camera,
-    light: Vec3,
-    size: u32,
-) -> (ShadowImage, ShadowImage, usize) {
-    common::shadow_scenes::check(world, camera, &point(light), size)
+fn sun(direction: Vec3) -> Light {
+    Light::Directional(DirectionalLight { direction })
 }
 
 #[test]
 fn a_box_over_a_floor_casts_its_exact_shadow() {
-    let half = Vec3::new(0.5, 0.4, 0.3);
-    let centre = Vec3::new(0.2, -0.1, 1.2);
-    let world = scene(vec![
-        still("floor", floor(4.0, 0.0, 6)),
-        still("box", block(half, centre, 2)),
-    ]);
-    let light = Vec3::new(0.6, 0.3, 3.5);
-    let cam = camera(Vec3::new(0.5, -5.0, 3.0), Vec3::new(0.0, 0.0, 0.3));
-    let (selective, full, plain_wrong) = check(&world, &cam, light, 256);
     // The floor's shadow is the hull of the box's corners projected from
     // the light onto z = 0.
+    let light = Vec3::new(0.6, 0.3, 3.5);
     let l = light.as_dvec3();
-    let corners: Vec<DVec2> = (0..8)
-        .map(|k| {
-            let s = DVec3::new(
-                [-1.0, 1.0][k & 1],
-                [-1.0, 1.0][(k >> 1) & 1],
-                [-1.0, 1.0][k >> 2],
-            );
-            let c = centre.as_dvec3() + s * half.as_dvec3();
-            let t = l.z / (l.z - c.z);
-            (l + (c - l) * t).truncate()
-        })
-        .collect();
-    let g = ShadowScene::new(&world).gbuffer(&cam).unwrap();
-    let mut checked = 0;
-    for (r, v) in g.receivers.iter().zip(&full.visibility) {
-        let Some(r) = r else { continue };
-        if r.object != 0 {
-            continue;
-        }
-        let d = hull_distance(&corners, r.point.as_dvec3().truncate());
-        if d.abs() < 1e-4 {
-            continue;
-        }
-        assert_eq!(
-            *v,
-            if d < 0.0 { 0.0 } else { 1.0 },
-            "floor point {:?}",
-            r.point
-        );
-        checked += 1;
-    }
-    assert!(checked > 10_000, "{checked} floor pixels checked");
-    assert!(full.visibility.iter().filter(|v| **v == 0.0).count() > 1000);
-    assert!(
-        selective.stats.pip_fraction() < 0.3,
-        "{:?}",
-        selective.stats
-    );
-    assert!(
-        plain_wrong > 0,
-        "a 256 texel shadow map should miss some edge pixels"
-    );
+    let onto_floor = |c: DVec3| (l + (c - l) * (l.z / (l.z - c.z))).truncate();
+    assert_box_shadow(&point(light), onto_floor, 1000);
+}
+
+#[test]
+fn a_box_over_a_floor_casts_its_exact_shadow_in_sunlight() {
+    // The floor's shadow is the hull of the box's corners moved along the
+    // light's direction onto z = 0.
+    let direction = Vec3::new(-0.4, -0.5, -1.0);
+    let d = direction.as_dvec3();
+    let onto_floor = |c: DVec3| (c + d * (c.z / -d.z)).truncate();
+    assert_box_shadow(&sun(direction), onto_floor, 500);
 }
 
 #[test]
 fn a_thin_wire_and_slats_that_a_shadow_map_drops_are_traced() {
     let world = scene(wire_and_slats());
     let cam = camera(Vec3::new(0.0, -4.5, 3.5), Vec3::new(0.0, -0.3, 0.0));
-    let (_, full, plain_wrong) = check(&world, &cam, Vec3::new(0.1, 0.2, 3.0), 128);
-    assert!(full.visibility.iter().filter(|v| **v == 0.0).count() > 200);
-    assert!(
-        plain_wrong > 100,
-        "the shadow map should lose the wire and slats: {plain_wrong}"
-    );
+    for light in [
+        point(Vec3::new(0.1, 0.2, 3.0)),
+        sun(Vec3::new(0.05, -0.1, -1.0)),
+        sun(Vec3::new(0.6, 0.3, -1.0)),
+    ] {
+        let (_, full, plain_wrong) = check(&world, &cam, &light, 128);
+        assert!(full.visibility.iter().filter(|v| **v == 0.0).count() > 200);
+        assert!(
+            plain_wrong > 50,
+            "the shadow map should lose the wire and slats: {plain_wrong}"
+        );
+    }
 }
 
 #[test]
@@ -126,7 +90,18 @@ fn grazing_light_and_receivers_seen_edge_on() {
         Vec3::new(-3.9, 0.05, 0.0),
         Vec3::new(-10.0, 0.0, 0.3),
     ] {
-        check(&world, &cam, light, 256);
+        check(&world, &cam, &point(light), 256);
+    }
+    for direction in [
+        // Sunlight down the box's faces and edges, a thousandth above the
+        // floor's plane, exactly in it, and from below it.
+        Vec3::new(0.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.05, -0.001),
+        Vec3::new(1.0, 0.05, 0.0),
+        Vec3::new(0.2, 0.1, 1.0),
+    ] {
+        check(&world, &cam, &sun(direction), 256);
     }
 }
 
@@ -145,36 +120,21 @@ fn lights_inside_and_on_geometry() {
         Vec3::new(-1.0, 1.5, 2.0),
         Vec3::new(0.5, 0.5, -0.5),
     ] {
-        check(&world, &cam, light, 128);
+        check(&world, &cam, &point(light), 128);
     }
 }
 
 #[test]
-fn a_moving_light_over_a_deforming_occluder() {
-    let base = block(Vec3::new(0.6, 0.2, 0.2), Vec3::new(0.0, 0.0, 1.0), 6);
-    let mut world = scene(vec![
-        still("floor", floor(3.0, 0.0, 5)),
-        still("bar", base.clone()),
-    ]);
-    let cam = camera(Vec3::new(0.0, -4.0, 3.0), Vec3::ZERO);
-    for frame in 0..4 {
-        let a = 0.4 * frame as f32;
-        let twisted = common::deformed(&base, |p| {
-            let q = Quat::from_rotation_x(a * p.x) * (p - Vec3::Z) + Vec3::Z;
-            q + Vec3::new(0.0, 0.0, 0.1 * (3.0 * p.x).sin() * frame as f32)
-        });
-        world
-            .update_mesh(1, &twisted, &vec![0; twisted.triangle_count()], 0.5)
-            .unwrap();
-        let light = Vec3::new(1.5 * a.cos(), 1.5 * a.sin(), 3.0);
-        check(&world, &cam, light, 192);
-    }
+fn a_moving_light_and_sun_over_a_deforming_occluder() {
+    check_over_a_deforming_bar(|a| point(Vec3::new(1.5 * a.cos(), 1.5 * a.sin(), 3.0)));
+    check_over_a_deforming_bar(|a| sun(Vec3::new(-0.5 * a.cos(), -0.5 * a.sin(), -1.0)));
 }
 
 #[test]
 fn tiny_and_huge_scales_far_from_the_origin() {
     for (world, cam, light, _) in box_at_extreme_scales() {
-        check(&world, &cam, light, 256);
+        check(&world, &cam, &point(light), 256);
+        check(&world, &cam, &sun(Vec3::new(-0.3, -0.6, -1.0)), 256);
     }
 }
 
@@ -194,7 +154,7 @@ fn a_rotated_instance_shadows_as_its_world_mesh_does() {
         ),
     ]);
     let cam = camera(Vec3::new(0.5, -5.0, 3.0), Vec3::ZERO);
-    check(&world, &cam, Vec3::new(-0.5, 0.4, 3.2), 256);
+    check(&world, &cam, &point(Vec3::new(-0.5, 0.4, 3.2)), 256);
 }
 
 #[test]
@@ -217,7 +177,7 @@ fn a_light_a_millimetre_from_a_turned_wall() {
         turn * Vec3::new(2.5, 0.5, -2.5),
     );
     for (x, z) in [(2.999, 1.0), (2.999, -2.9), (2.99999, 0.0)] {
-        check(&world, &cam, turn * Vec3::new(x, 0.5, z), 128);
+        check(&world, &cam, &point(turn * Vec3::new(x, 0.5, z)), 128);
     }
 }
 
@@ -237,7 +197,7 @@ fn points_in(lo: Vec3, hi: Vec3, n: usize) -> Vec<Vec3> {
 }
 
 #[test]
-fn points_in_the_air_and_on_surfaces_see_the_light_as_rays_say() {
+fn points_in_the_air_and_on_surfaces_see_the_light_and_sun_as_rays_say() {
     let mut objects = vec![
         still("floor", floor(4.0, 0.0, 4)),
         still(
@@ -261,17 +221,29 @@ fn points_in_the_air_and_on_surfaces_see_the_light_as_rays_say() {
     points.extend((0..200).map(|i| Vec3::new(-3.0 + 0.03 * i as f32, 0.1, 0.0)));
     points.extend((0..6).map(|k| Vec3::new(-1.5 + 0.5 * k as f32, 1.5, 1.52)));
     points.push(light.position);
-    let answer = |method| {
+    let answer = |light: &Light, method| {
         let options = ShadowOptions {
             method,
             shadow_map_size: 128,
             ..ShadowOptions::default()
         };
         shadows
-            .visibility(&world, &Light::Point(light), &points, &options)
+            .visibility(&world, light, &points, &options)
             .unwrap()
     };
-    let (full, selective) = (answer(Method::Full), answer(Method::Selective));
+    let sunlight = sun(Vec3::new(0.2, -0.1, -1.0));
+    let (full, selective) = (
+        answer(&sunlight, Method::Full),
+        answer(&sunlight, Method::Selective),
+    );
+    assert_eq!(selective.fraction, full.fraction);
+    let hidden = full.fraction.iter().filter(|v| **v == 0.0).count();
+    assert!(hidden > 150, "{hidden} hidden from the sun");
+    let point_light = Light::Point(light);
+    let (full, selective) = (
+        answer(&point_light, Method::Full),
+        answer(&point_light, Method::Selective),
+    );
     assert_eq!(selective.fraction, full.fraction);
     let hidden = full.fraction.iter().filter(|v| **v == 0.0).count();
     assert!(
@@ -305,7 +277,7 @@ fn a_surface_receives_light_only_on_the_side_it_is_seen_from() {
         (Vec3::new(0.5, -1.0, 3.0), 1.0),
     ] {
         let cam = camera(eye, Vec3::ZERO);
-        let (_, full, _) = check(&world, &cam, light, 64);
+        let (_, full, _) = check(&world, &cam, &point(light), 64);
         let seen = seen(&world, &cam, &full);
         assert!(seen.len() > 10_000);
         assert!(seen.iter().all(|v| *v == lit), "seen from {eye}");
@@ -354,8 +326,8 @@ fn a_spot_light_shadows_as_its_point_light_inside_its_cone_and_darkens_outside()
         direction,
         half_angle_deg,
     });
-    let (_, full, _) = common::shadow_scenes::check(&world, &cam, &spot, 256);
-    let (_, point_full, _) = check(&world, &cam, position, 256);
+    let (_, full, _) = check(&world, &cam, &spot, 256);
+    let (_, point_full, _) = check(&world, &cam, &point(position), 256);
     let g = ShadowScene::new(&world).gbuffer(&cam).unwrap();
     let (mut inside, mut outside) = (0, 0);
     for ((r, v), p) in g
@@ -402,5 +374,24 @@ fn a_spot_light_of_no_cone_or_direction_is_refused() {
         let options = ShadowOptions::default();
         let r = ShadowScene::new(&world).shadows(&world, &cam, &spot, &options);
         assert!(r.is_err(), "{direction} {half_angle_deg}");
+    }
+}
+
+#[test]
+fn a_direction_of_zero_or_nan_is_refused() {
+    let world = scene(vec![still("floor", floor(1.0, 0.0, 1))]);
+    let cam = camera(Vec3::new(0.0, -2.0, 1.0), Vec3::ZERO);
+    for direction in [
+        Vec3::ZERO,
+        Vec3::new(f32::NAN, 0.0, -1.0),
+        Vec3::new(0.0, f32::INFINITY, 0.0),
+    ] {
+        let r = ShadowScene::new(&world).shadows(
+            &world,
+            &cam,
+            &sun(direction),
+            &ShadowOptions::default(),
+        );
+        assert!(r.is_err(), "{direction}");
     }
 }

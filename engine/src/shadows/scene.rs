@@ -155,39 +155,22 @@ impl ShadowScene {
         options: &ShadowOptions,
         stats: &mut ShadowStats,
     ) -> Vec<f32> {
-        match light {
-            Light::Point(l) => resolve(
-                &self.occluders,
-                &self.topology,
-                world,
-                Eye::point(l.position),
-                layout.0 * layout.1,
-                target,
-                options,
-                stats,
-            ),
-            Light::Spot(l) => resolve(
-                &self.occluders,
-                &self.topology,
-                world,
-                Eye::spot(l),
-                layout.0 * layout.1,
-                target,
-                options,
-                stats,
-            ),
-            Light::Directional(l) => resolve(
-                &self.occluders,
-                &self.topology,
-                world,
-                Eye::parallel(l.unit().expect("checked on entry"), world),
-                layout.0 * layout.1,
-                target,
-                options,
-                stats,
-            ),
-            Light::Area(l) => self.resolve_area(world, l, layout, target, options, stats),
-        }
+        let eye = match light {
+            Light::Point(l) => Eye::point(l.position),
+            Light::Spot(l) => Eye::spot(l),
+            Light::Directional(l) => Eye::parallel(l.unit().expect("checked on entry"), world),
+            Light::Area(l) => return self.resolve_area(world, l, layout, target, options, stats),
+        };
+        resolve(
+            &self.occluders,
+            &self.topology,
+            world,
+            eye,
+            layout.0 * layout.1,
+            target,
+            options,
+            stats,
+        )
     }
 }
 

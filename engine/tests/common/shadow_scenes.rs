@@ -5,7 +5,7 @@ use frusta_engine::geometry::shapes::cube;
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::{Material, Scene, SceneObject};
 use frusta_engine::shadows::{Camera, Light, Method, ShadowImage, ShadowOptions, ShadowScene};
-use glam::{DVec2, Vec3};
+use glam::{DVec2, DVec3, Vec3};
 
 use super::{deformed, grid_triangles, object};
 
@@ -196,4 +196,80 @@ pub fn hull_distance(points: &[DVec2], p: DVec2) -> f64 {
             -(b - a).perp_dot(p - a) / a.distance(b)
         })
         .fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// Checks the shadows of `light` on a box over a floor against the
+/// closed form and full ray tracing: selective equals full on every pixel,
+/// which traces under 30% of them; every floor pixel is shadowed inside
+/// the hull of the box's corners moved by `onto_floor` onto z = 0 (z
+/// dropped) and lit outside, pixels within 1e-4 of its edge skipped; more
+/// than `min_shadowed` pixels are shadowed, and a plain 256 texel shadow
+/// map gets some edge pixels wrong.
+pub fn assert_box_shadow(light: &Light, onto_floor: impl Fn(DVec3) -> DVec2, min_shadowed: usize) {
+    let (half, centre) = (Vec3::new(0.5, 0.4, 0.3), Vec3::new(0.2, -0.1, 1.2));
+    let world = scene(vec![
+        still("floor", floor(4.0, 0.0, 6)),
+        still("box", block(half, centre, 2)),
+    ]);
+    let cam = camera(Vec3::new(0.5, -5.0, 3.0), Vec3::new(0.0, 0.0, 0.3));
+    let (selective, full, plain_wrong) = check(&world, &cam, light, 256);
+    let shadow: Vec<DVec2> = (0..8)
+        .map(|k| {
+            let s = DVec3::new(
+                [-1.0, 1.0][k & 1],
+                [-1.0, 1.0][(k >> 1) & 1],
+                [-1.0, 1.0][k >> 2],
+            );
+            onto_floor(centre.as_dvec3() + s * half.as_dvec3())
+        })
+        .collect();
+    let g = ShadowScene::new(&world).gbuffer(&cam).unwrap();
+    let mut checked = 0;
+    for (r, v) in g.receivers.iter().zip(&full.visibility) {
+        let Some(r) = r else { continue };
+        if r.object != 0 {
+            continue;
+        }
+        let d = hull_distance(&shadow, r.point.as_dvec3().truncate());
+        if d.abs() < 1e-4 {
+            continue;
+        }
+        let expected = if d < 0.0 { 0.0 } else { 1.0 };
+        assert_eq!(*v, expected, "floor point {:?}", r.point);
+        checked += 1;
+    }
+    assert!(checked > 10_000, "{checked} floor pixels checked");
+    let shadowed = full.visibility.iter().filter(|v| **v == 0.0).count();
+    assert!(shadowed > min_shadowed, "{shadowed} shadowed");
+    assert!(
+        selective.stats.pip_fraction() < 0.3,
+        "{:?}",
+        selective.stats
+    );
+    assert!(
+        plain_wrong > 0,
+        "a 256 texel shadow map should miss some edge pixels"
+    );
+}
+
+/// A bar over a floor twisting and bending over four frames, each checked
+/// by [`check`] under `light(a)` for the frame's angle `a`.
+pub fn check_over_a_deforming_bar(light: impl Fn(f32) -> Light) {
+    let base = block(Vec3::new(0.6, 0.2, 0.2), Vec3::new(0.0, 0.0, 1.0), 6);
+    let mut world = scene(vec![
+        still("floor", floor(3.0, 0.0, 5)),
+        still("bar", base.clone()),
+    ]);
+    let cam = camera(Vec3::new(0.0, -4.0, 3.0), Vec3::ZERO);
+    for frame in 0..4 {
+        let a = 0.4 * frame as f32;
+        let twisted = deformed(&base, |p| {
+            let q = glam::Quat::from_rotation_x(a * p.x) * (p - Vec3::Z) + Vec3::Z;
+            q + Vec3::new(0.0, 0.0, 0.1 * (3.0 * p.x).sin() * frame as f32)
+        });
+        world
+            .update_mesh(1, &twisted, &vec![0; twisted.triangle_count()], 0.5)
+            .unwrap();
+        check(&world, &cam, &light(a), 192);
+    }
 }
