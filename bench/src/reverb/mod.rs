@@ -55,6 +55,12 @@ pub struct Args {
     /// Seed of the tail's rays.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Box rooms without scattering also run the tail with this many seeds
+    /// (`seed`, `seed + 1`, ...; untimed) and report each band's decay
+    /// times' differences from the exact image sources over them: the
+    /// estimator's spread, which one seed cannot show.
+    #[arg(long, default_value_t = 1)]
+    seeds: u64,
     /// Timed runs per scene; the median is reported.
     #[arg(long, default_value_t = 3)]
     rounds: usize,
@@ -141,8 +147,29 @@ struct Run {
     pyroomacoustics_threads: Option<usize>,
     pyroomacoustics_version: Option<String>,
     bands: Vec<Band>,
+    /// Over `--seeds` seeds, where there are exact image sources.
+    seed_spread: Option<Vec<SeedSpread>>,
     #[serde(skip)]
     curves: plot::Curves,
+}
+
+/// Differences from the exact image sources in JND over several seeds:
+/// per parameter (EDT, T20, T30) the mean, least and greatest.
+#[derive(Serialize)]
+struct SeedSpread {
+    band_hz: f32,
+    seeds: u64,
+    edt: [f64; 3],
+    t20: [f64; 3],
+    t30: [f64; 3],
+}
+
+/// Mean, least and greatest of `values` (not empty).
+fn spread(values: &[f64]) -> [f64; 3] {
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    [mean, lo, hi]
 }
 
 #[derive(Serialize)]
@@ -258,6 +285,16 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
         .as_ref()
         .filter(|_| specular)
         .map(|walls| walls.image_sources(bench.source, bench.listener, speed, args.length));
+    let seed_spread = match &exact {
+        Some(exact) if args.seeds > 1 => Some(seed_spread(
+            &scene,
+            (source, listener),
+            &options,
+            exact,
+            args,
+        )?),
+        _ => None,
+    };
     let peer = peer.map(|mut hybrid: pyroom::Hybrid| {
         hybrid.ms = median(peer_ms);
         hybrid
@@ -320,6 +357,7 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
         pyroomacoustics_threads: peer.as_ref().map(|p| p.threads),
         pyroomacoustics_version: peer.as_ref().map(|p| p.version.clone()),
         bands,
+        seed_spread,
         curves: plot::Curves {
             frusta_ir: r.impulse_response.channels[0].clone(),
             frusta: (0..BAND_COUNT).map(|b| echogram(&r, b)).collect(),
@@ -328,6 +366,55 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
             exact: exact.map(|e| e.into_iter().map(|(_, echogram)| echogram).collect()),
         },
     })
+}
+
+/// The decay times' differences from `exact` (per band, as
+/// `BoxWalls::image_sources` gives them) in JND over `args.seeds` seeds of
+/// the tail, the other options as `options`.
+fn seed_spread(
+    scene: &AcousticScene,
+    (source, listener): (glam::Vec3, glam::Vec3),
+    options: &SimulationOptions,
+    exact: &[(RoomParameters, Vec<(f64, f64)>)],
+    args: &Args,
+) -> Result<Vec<SeedSpread>, String> {
+    // Per band, per parameter, one difference per seed.
+    let mut diffs = vec![[Vec::new(), Vec::new(), Vec::new()]; BAND_COUNT];
+    for seed in args.seed..args.seed + args.seeds {
+        let mut options = options.clone();
+        if let Tail::Stochastic(tail) = &mut options.tail {
+            tail.seed = seed;
+        }
+        let r = simulate(scene, &[source], &[listener], &options)
+            .map_err(|e| e.to_string())?
+            .remove(0);
+        for b in &r.parameters {
+            let Some(band) = OCTAVE_BANDS_HZ.iter().position(|&hz| hz == b.band_hz) else {
+                continue;
+            };
+            let (p, e) = (&b.parameters, &exact[band].0);
+            for (k, (f, x)) in [(p.edt_s, e.edt_s), (p.t20_s, e.t20_s), (p.t30_s, e.t30_s)]
+                .into_iter()
+                .enumerate()
+            {
+                if let Some(d) = jnd(f, x, true, JND_DECAY) {
+                    diffs[band][k].push(d);
+                }
+            }
+        }
+    }
+    Ok(diffs
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.iter().all(|v| !v.is_empty()))
+        .map(|(band, [edt, t20, t30])| SeedSpread {
+            band_hz: OCTAVE_BANDS_HZ[band],
+            seeds: args.seeds,
+            edt: spread(edt),
+            t20: spread(t20),
+            t30: spread(t30),
+        })
+        .collect())
 }
 
 pub fn run(args: Args) -> Result<(), String> {
@@ -470,6 +557,25 @@ fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
             ]);
         }
         out += &aligned(&rows, 0);
+        if let Some(spread) = &run.seed_spread {
+            let seeds = spread.first().map_or(0, |s| s.seeds);
+            out += &format!(
+                "over {seeds} seeds ({}..{}, untimed): frusta - exact in JND, mean [least, greatest]\n",
+                args.seed,
+                args.seed + seeds - 1
+            );
+            let mut rows = vec![["band Hz", "EDT", "T20", "T30"].map(String::from).to_vec()];
+            let cell = |s: &[f64; 3]| format!("{:+.1} [{:+.1}, {:+.1}]", s[0], s[1], s[2]);
+            for s in spread {
+                rows.push(vec![
+                    format!("{}", s.band_hz),
+                    cell(&s.edt),
+                    cell(&s.t20),
+                    cell(&s.t30),
+                ]);
+            }
+            out += &aligned(&rows, 0);
+        }
     }
     out
 }
