@@ -27,6 +27,7 @@ use crate::routes::{
     collisions, health, impulse_responses, materials, objects, occlusion, rays, scenes, shadows,
     stream, visibility,
 };
+use crate::shadow_cache::ShadowCache;
 
 #[derive(Clone)]
 pub struct AppState(Arc<Inner>);
@@ -48,6 +49,8 @@ struct Inner {
     shutdown: CancellationToken,
     /// Stream tasks, awaited on shutdown.
     tasks: TaskTracker,
+    /// The shadow data of the scene last asked about.
+    shadows: ShadowCache,
 }
 
 impl AppState {
@@ -69,6 +72,7 @@ impl AppState {
             )),
             shutdown: CancellationToken::new(),
             tasks: TaskTracker::new(),
+            shadows: ShadowCache::default(),
         }));
         state.refresh_scene_gauges();
         state
@@ -96,6 +100,10 @@ impl AppState {
 
     pub fn queries(&self) -> &ComputePool {
         &self.0.queries
+    }
+
+    pub fn shadow_cache(&self) -> &ShadowCache {
+        &self.0.shadows
     }
 
     pub fn streams(&self) -> &Arc<Semaphore> {

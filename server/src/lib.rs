@@ -16,6 +16,7 @@ mod error;
 mod metrics;
 mod registry;
 mod routes;
+mod shadow_cache;
 mod simulation;
 mod store;
 

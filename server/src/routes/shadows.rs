@@ -8,7 +8,7 @@ use axum::response::{IntoResponse, Response};
 use axum::Json;
 use frusta_api::schemas::Binary;
 use frusta_api::shadows::{png, ShadowRequest, ShadowResponse};
-use frusta_engine::shadows::{Light, ShadowScene};
+use frusta_engine::shadows::Light;
 
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
@@ -72,13 +72,14 @@ pub async fn render(
         .get(header::ACCEPT)
         .and_then(|v| v.to_str().ok())
         .is_some_and(|a| a.contains("image/png"));
+    let cache = state.clone();
     let (revision, image) = state
         .queries()
         .run(move || {
             let live = entry.read();
-            let world = live.acoustic.bvh();
-            let image = ShadowScene::new(world).shadows(world, &camera, &light, &options);
-            (live.acoustic.revision(), image)
+            let (world, revision) = (live.acoustic.bvh(), live.acoustic.revision());
+            let shadows = cache.shadow_cache().get(&live.acoustic);
+            (revision, shadows.shadows(world, &camera, &light, &options))
         })
         .await?;
     let image = image.map_err(ApiError::from_engine)?;

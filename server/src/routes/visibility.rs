@@ -5,7 +5,6 @@
 use axum::extract::{Path, State};
 use axum::Json;
 use frusta_api::shadows::{VisibilityRequest, VisibilityResponse};
-use frusta_engine::shadows::ShadowScene;
 
 use crate::app::AppState;
 use crate::error::{ApiError, JsonBody, Problem};
@@ -45,13 +44,17 @@ pub async fn check(
             options.shadow_map_size
         )));
     }
+    let cache = state.clone();
     let (revision, answer) = state
         .queries()
         .run(move || {
             let live = entry.read();
-            let world = live.acoustic.bvh();
-            let answer = ShadowScene::new(world).visibility(world, &light, &points, &options);
-            (live.acoustic.revision(), answer)
+            let (world, revision) = (live.acoustic.bvh(), live.acoustic.revision());
+            let shadows = cache.shadow_cache().get(&live.acoustic);
+            (
+                revision,
+                shadows.visibility(world, &light, &points, &options),
+            )
         })
         .await?;
     let answer = answer.map_err(ApiError::from_engine)?;
