@@ -5,8 +5,9 @@
 //! rendering frames of a moving light or camera asks about the same
 //! geometry again and again.
 //!
-//! One scene at a time, so the memory it holds is bounded by the largest
-//! scene's. It is keyed by the acoustic scene's state
+//! One scene at a time, of at most [`KEEP_MAX_TRIANGLES`] (about 250 MiB
+//! of shadow data; a larger scene's is made per query, as before), so the
+//! memory it holds stays bounded. It is keyed by the acoustic scene's state
 //! ([`AcousticScene::state`](frusta_engine::acoustics::AcousticScene::state)),
 //! unique in the process and new with every edit, so a moved object, or
 //! a scene deleted and uploaded again under the same id, is never served
@@ -17,20 +18,31 @@ use std::sync::{Arc, Mutex};
 use frusta_engine::acoustics::AcousticScene;
 use frusta_engine::shadows::ShadowScene;
 
+/// The most triangles a kept scene may have.
+pub const KEEP_MAX_TRIANGLES: usize = 1 << 21;
+
 #[derive(Default)]
 pub struct ShadowCache(Mutex<Option<(u64, Arc<ShadowScene>)>>);
 
 impl ShadowCache {
     /// The shadow data of `scene` (read under its entry's lock): the kept
     /// one if it is of this state, else made (outside the cache's lock)
-    /// and kept in its place.
+    /// and kept in its place unless the scene is too large to keep.
     pub fn get(&self, scene: &AcousticScene) -> Arc<ShadowScene> {
         let state = scene.state();
         if let Some((_, kept)) = self.lock().as_ref().filter(|(s, _)| *s == state) {
             return Arc::clone(kept);
         }
         let shadows = Arc::new(ShadowScene::new(scene.bvh()));
-        *self.lock() = Some((state, Arc::clone(&shadows)));
+        let triangles: usize = scene
+            .bvh()
+            .instances()
+            .iter()
+            .map(|i| i.bvh().triangle_count())
+            .sum();
+        if triangles <= KEEP_MAX_TRIANGLES {
+            *self.lock() = Some((state, Arc::clone(&shadows)));
+        }
         shadows
     }
 
