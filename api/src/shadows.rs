@@ -1,6 +1,6 @@
 //! `POST /v1/scenes/{id}/shadows`: how much of a light each pixel of a
-//! camera's view receives (hard shadows of a point or directional light,
-//! soft shadows of an area light), as a grey PNG or as JSON; and
+//! camera's view receives (hard shadows of a point, spot or directional
+//! light, soft shadows of an area light), as a grey PNG or as JSON; and
 //! `POST /v1/scenes/{id}/visibility`: how much of a light each of a list
 //! of points (seats, listeners) sees.
 
@@ -124,36 +124,6 @@ pub enum LightShape {
 }
 
 impl LightSpec {
-    /// A point light.
-    pub fn point(position: [f32; 3]) -> Self {
-        Self {
-            position: Some(position),
-            ..Self::of(LightShape::Point)
-        }
-    }
-
-    /// A directional light: its light travels along `direction`.
-    pub fn directional(direction: [f32; 3]) -> Self {
-        Self {
-            direction: Some(direction),
-            ..Self::of(LightShape::Directional)
-        }
-    }
-
-    /// A light of `shape` with no field set.
-    fn of(shape: LightShape) -> Self {
-        Self {
-            position: None,
-            shape,
-            direction: None,
-            half_angle_deg: None,
-            u: None,
-            v: None,
-            normal: None,
-            radius: None,
-        }
-    }
-
     /// The engine's light, or what is missing or out of place.
     pub fn engine(&self) -> Result<Light, String> {
         let need = |v: Option<[f32; 3]>, what: &str| {
@@ -187,18 +157,19 @@ impl LightSpec {
                 self.shape
             ));
         }
-        let centre = need(self.position, "position");
-        let area = |shape| {
-            centre
-                .clone()
-                .map(|centre| Light::Area(AreaLight { centre, shape }))
+        let centre = || need(self.position, "position");
+        let area = |shape| -> Result<Light, String> {
+            Ok(Light::Area(AreaLight {
+                centre: centre()?,
+                shape,
+            }))
         };
         Ok(match self.shape {
             LightShape::Point => Light::Point(PointLight {
-                position: centre.clone()?,
+                position: centre()?,
             }),
             LightShape::Spot => Light::Spot(SpotLight {
-                position: centre.clone()?,
+                position: centre()?,
                 direction: need(self.direction, "direction")?,
                 half_angle_deg: self
                     .half_angle_deg

@@ -73,8 +73,8 @@ enum Command {
     /// Which triangles touch, come within a distance, or meet while objects
     /// move, here or (with `--scene-id`) on the server.
     Collide(Box<collide::CollideArgs>),
-    /// Where a light (point, directional or area) reaches in a camera's view, as a PNG, here or
-    /// (with `--scene-id`) on the server.
+    /// Where a light (point, spot, directional or area) reaches in a
+    /// camera's view, as a PNG, here or (with `--scene-id`) on the server.
     Shadows(Box<shadows::ShadowArgs>),
     /// The server's scenes (needs `--server`).
     Scenes {

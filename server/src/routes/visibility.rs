@@ -11,7 +11,8 @@ use crate::error::{ApiError, JsonBody, Problem};
 use crate::routes::rays::MAX_RAYS;
 use crate::routes::shadows::{check_samples, MAX_SHADOW_MAP_SIZE};
 
-/// Body: `{"light": {"position": [x, y, z][, "shape", ...]}, "points":
+/// Body: `{"light": {"position": [x, y, z][, "shape", ...]} (or {"shape":
+/// "directional", "direction": [x, y, z]}), "points":
 /// [[x, y, z], ...]}` (at most 100,000 points), optionally `method`,
 /// `shadow_map_size`, `samples` and `seed`.
 #[utoipa::path(post, path = "/v1/scenes/{id}/visibility", tag = "queries",
@@ -109,6 +110,19 @@ mod tests {
             .send(post_json("/v1/scenes/nothing/visibility", &bad))
             .await;
         assert_eq!(status, StatusCode::NOT_FOUND);
+    }
+
+    #[tokio::test]
+    async fn a_spot_light_reaches_only_the_points_in_its_cone() {
+        // Aimed past the panel's lower end at y = 0.3, 8 degrees wide:
+        // at x = 6 it reaches y up to about 0.9, and the panel hides
+        // y 0.5 and up; without the cone the last point would be lit.
+        let spot = json!({"shape": "spot", "position": [2, 1.5, 1.2],
+                          "direction": [4, -1.2, 0], "half_angle_deg": 8});
+        let (_, full) = behind_the_panel(spot).await;
+        let visible: Vec<bool> = serde_json::from_value(full["visible"].clone()).unwrap();
+        assert!(visible[0] && !visible[39], "{visible:?}");
+        assert!(visible.iter().filter(|v| **v).count() < 10, "{visible:?}");
     }
 
     #[tokio::test]
