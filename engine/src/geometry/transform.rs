@@ -1,6 +1,7 @@
 use glam::{Affine3A, Quat, Vec3, Vec3A};
 use serde::{Deserialize, Serialize};
 
+use super::MAX_COORDINATE;
 use crate::{Error, Result};
 
 /// A rigid motion: rotate, then translate. Rigid motions keep distances, so a
@@ -31,10 +32,17 @@ impl RigidTransform {
     };
 
     /// A rigid transform; the rotation is normalised. Errors on non-finite
-    /// input or a zero quaternion.
+    /// input, a zero quaternion, or a translation beyond [`MAX_COORDINATE`]
+    /// on some axis, the bound mesh vertices keep (objects moved to ±3e38 m
+    /// gave the world an infinite box, and the tail an infinite volume).
     pub fn new(rotation: Quat, translation: Vec3) -> Result<Self> {
         if !rotation.is_finite() || !translation.is_finite() {
             return Err(Error::InvalidTransform("non-finite component".into()));
+        }
+        if translation.abs().max_element() > MAX_COORDINATE {
+            return Err(Error::InvalidTransform(format!(
+                "translation beyond {MAX_COORDINATE:e} m"
+            )));
         }
         // In f64: the f32 length of a quaternion with components past
         // about 1.8e19 overflows, and dividing by it gave zero.
@@ -159,6 +167,17 @@ mod tests {
     fn rejects_bad_rotations() {
         assert!(RigidTransform::new(Quat::from_xyzw(0.0, 0.0, 0.0, 0.0), Vec3::ZERO).is_err());
         assert!(RigidTransform::new(Quat::IDENTITY, Vec3::new(f32::NAN, 0.0, 0.0)).is_err());
+    }
+
+    #[test]
+    fn rejects_translations_beyond_the_coordinate_bound() {
+        let at = |x: f32| RigidTransform::new(Quat::IDENTITY, Vec3::new(0.0, x, 0.0));
+        assert!(at(MAX_COORDINATE).is_ok());
+        assert!(at(-MAX_COORDINATE).is_ok());
+        for x in [2.0 * MAX_COORDINATE, -3e38, f32::MAX] {
+            let e = at(x).unwrap_err().to_string();
+            assert!(e.contains("translation"), "{e}");
+        }
     }
 
     #[test]

@@ -167,6 +167,11 @@ mod tests {
             ),
             (
                 "/v1/scenes/box/objects/panel",
+                r#"{"translation": [0, -3e38, 0]}"#,
+                StatusCode::UNPROCESSABLE_ENTITY,
+            ),
+            (
+                "/v1/scenes/box/objects/panel",
                 r#"{"vertices": [[0, 0, 0]]}"#,
                 StatusCode::UNPROCESSABLE_ENTITY,
             ),

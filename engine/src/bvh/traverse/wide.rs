@@ -130,6 +130,10 @@ pub fn walk_pruned<W: WideTree, T: NodeTest>(
     loop {
         let base = top;
         let (keys, mut mask) = test.test4(&tree.boxes(node), bound);
+        // Indexed as an array: glam indexes a `Vec4` through a jump table,
+        // an indirect branch per kept slot that rarely predicts (a tenth of
+        // a tail ray's time in a hall).
+        let keys = keys.to_array();
         // The nearest kept child is handled next, the others pushed
         // farthest first. Most nodes keep at most one child: no sort then.
         let mut next = None;
