@@ -28,6 +28,12 @@ pub struct RayTest {
     /// Per axis, whether the direction is negative (then the near plane is
     /// the box maximum); a negative zero counts as negative.
     negative: [bool; 3],
+    /// Per axis, the near and far planes' indices in
+    /// [`Boxes4::planes`]: chosen once per ray, so the four-box test has
+    /// no branch on the direction (a mispredicted one in the first nodes
+    /// of every incoherent ray).
+    near: [usize; 3],
+    far: [usize; 3],
     t_min: f32,
 }
 
@@ -36,10 +42,13 @@ impl RayTest {
     pub fn new(ray: &Ray) -> Self {
         let inv = ray.dir.recip();
         let neg = |d: f32| d < 0.0 || (d == 0.0 && d.is_sign_negative());
+        let negative = [neg(ray.dir.x), neg(ray.dir.y), neg(ray.dir.z)];
         Self {
             origin: [0, 1, 2].map(|a| Vec4::splat(ray.origin[a])),
             inv_dir: [0, 1, 2].map(|a| Vec4::splat(inv[a])),
-            negative: [neg(ray.dir.x), neg(ray.dir.y), neg(ray.dir.z)],
+            negative,
+            near: [0, 1, 2].map(|a| if negative[a] { a + 3 } else { a }),
+            far: [0, 1, 2].map(|a| if negative[a] { a } else { a + 3 }),
             t_min: ray.t_min,
         }
     }
@@ -101,12 +110,9 @@ impl NodeTest for RayTest {
     fn test4(&self, n: &Boxes4, bound: f32) -> (Vec4, u32) {
         let mut enter = Vec4::splat(self.t_min);
         let mut exit = Vec4::splat(bound);
+        let planes = n.planes();
         for axis in 0..3 {
-            let (near, far) = if self.negative[axis] {
-                (n.hi[axis], n.lo[axis])
-            } else {
-                (n.lo[axis], n.hi[axis])
-            };
+            let (near, far) = (planes[self.near[axis]], planes[self.far[axis]]);
             let tn = (near - self.origin[axis]) * self.inv_dir[axis];
             let tf = (far - self.origin[axis]) * self.inv_dir[axis] * EXIT_SCALE;
             enter = max_keep(tn, enter);
