@@ -110,15 +110,19 @@ impl WatertightRay {
         let u = c.x * b.y - c.y * b.x;
         let v = a.x * c.y - a.y * c.x;
         let w = b.x * a.y - b.y * a.x;
-        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        // Non-short-circuit `|` and `&`: one branch each, not one per
+        // comparison; whether a ray meets a triangle does not predict.
+        let negative = (u < 0.0) | (v < 0.0) | (w < 0.0);
+        let positive = (u > 0.0) | (v > 0.0) | (w > 0.0);
+        if negative & positive {
             return None;
         }
-        if u == 0.0 || v == 0.0 || w == 0.0 {
+        if (u == 0.0) | (v == 0.0) | (w == 0.0) {
             return exact_intersect(a, b, c, t_min, t_max);
         }
         let det = u + v + w;
         let t = (u * a.z + v * b.z + w * c.z) / det;
-        if !(t >= t_min && t <= t_max) {
+        if !((t >= t_min) & (t <= t_max)) {
             return None;
         }
         let inv = 1.0 / det;
