@@ -54,10 +54,11 @@ impl Move {
         let rotation_ok = self.rotation.is_none_or(|q| {
             q.iter().all(fits) && q.iter().map(|x| x * x).sum::<f64>().sqrt() >= 1e-5
         });
-        let translation_ok = self.translation.is_none_or(|t| t.iter().all(fits));
+        // A mesh's coordinates, and an object's translation, stay within
+        // the engine's range.
+        let in_range = |x: &f64| x.abs() <= f64::from(MAX_COORDINATE);
+        let translation_ok = self.translation.is_none_or(|t| t.iter().all(in_range));
         let vertices_ok = self.vertices.as_ref().is_none_or(|v| {
-            // A mesh's coordinates stay within the engine's range.
-            let in_range = |x: &f64| x.abs() <= f64::from(MAX_COORDINATE);
             // Four corners at one point: no triangle has area.
             let collapsed = v.iter().all(|p| *p == v[0]);
             self.index == Some(1) && v.len() == 4 && v.iter().flatten().all(in_range) && !collapsed
