@@ -139,7 +139,7 @@ mod cached {
 
     use frusta_engine::acoustics::{
         simulate, simulate_cached, simulate_until, AcousticScene, BeamCache, CellAssignment,
-        Response, SimulationOptions,
+        Response, SimulationOptions, SoundPath, Tail,
     };
     use frusta_engine::geometry::RigidTransform;
     use frusta_engine::Error;
@@ -147,11 +147,14 @@ mod cached {
 
     use super::{bundled, shoebox};
 
+    /// Beams are kept for the very source position only: these tests
+    /// hold cached answers to be the fresh ones, bit for bit.
     fn options(max_order: u32) -> SimulationOptions {
         SimulationOptions {
             max_order,
             sampling: 8,
             sample_rate: 8_000,
+            source_reuse_m: 0.0,
             ..Default::default()
         }
     }
@@ -247,6 +250,69 @@ mod cached {
                 assert_eq!(reused, i > 0, "step {i}");
             }
         }
+    }
+
+    #[test]
+    fn a_moving_source_reuses_its_beams_within_reach_and_finds_no_false_path() {
+        let scene = AcousticScene::new(&bundled("l-room"));
+        let listener = [Vec3::new(11.0, 5.0, 1.2)];
+        let options = SimulationOptions {
+            max_order: 3,
+            sampling: 4,
+            cells: CellAssignment::Conservative,
+            sample_rate: 8_000,
+            tail: Tail::None,
+            diffraction_order: 0,
+            source_reuse_m: 0.25,
+            ..Default::default()
+        };
+        let same = |a: &SoundPath, b: &SoundPath| {
+            a.order == b.order && (a.distance_m - b.distance_m).abs() < 1e-9
+        };
+        let mut cache = BeamCache::default();
+        let (mut found, mut total) = (0, 0);
+        for i in 0..9 {
+            let step = 0.04 * i as f32;
+            let source = [Vec3::new(1.0 + step, 9.0, 1.5)];
+            let moving =
+                simulate_cached(&scene, &source, &listener, &options, &mut cache, None, None)
+                    .unwrap()
+                    .remove(0);
+            // Traced at 1.0 m, reused to 0.24 m from there, traced again
+            // at 0.28 m and reused from there.
+            let traced_at = if i < 7 { 0.0 } else { 0.28 };
+            assert_eq!(moving.stats.beams_reused, i != 0 && i != 7, "step {i}");
+            assert!(
+                (moving.stats.beams_offset_m - f64::from(step - traced_at)).abs() < 1e-5,
+                "step {i}: {}",
+                moving.stats.beams_offset_m
+            );
+            // Against a fresh trace with conservative cells, which finds
+            // every path (checked against the reference above).
+            let fresh = simulate(&scene, &source, &listener, &options)
+                .unwrap()
+                .remove(0);
+            for p in &moving.paths {
+                assert!(fresh.paths.iter().any(|f| same(p, f)), "step {i}: {p:?}");
+            }
+            found += fresh
+                .paths
+                .iter()
+                .filter(|f| moving.paths.iter().any(|p| same(p, f)))
+                .count();
+            total += fresh.paths.len();
+        }
+        println!("moving source: {found} of {total} paths");
+        assert!(found as f64 >= 0.95 * total as f64, "{found} of {total}");
+        // Without a reach every move is traced.
+        let exact = SimulationOptions {
+            source_reuse_m: 0.0,
+            ..options
+        };
+        let source = [Vec3::new(1.3, 9.0, 1.5)];
+        let r =
+            simulate_cached(&scene, &source, &listener, &exact, &mut cache, None, None).unwrap();
+        assert!(!r[0].stats.beams_reused);
     }
 
     #[test]

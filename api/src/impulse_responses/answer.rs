@@ -105,6 +105,11 @@ pub struct StatsOut {
     pub paths: usize,
     /// Whether the source's frusta came from a stream's cache.
     pub beams_reused: bool,
+    /// How far from this source the reused frusta were traced, m: 0 when
+    /// traced here; within the request's `source_reuse_m` they are
+    /// re-mirrored for the moved source.
+    #[serde(default)]
+    pub beams_offset_m: f64,
     pub trace_ms: f64,
     /// Time to find the diffracted paths of the source's listeners.
     pub diffraction_ms: f64,
@@ -170,6 +175,7 @@ impl From<&Response> for PairResponse {
                 proposals: stats.proposals,
                 paths: stats.paths,
                 beams_reused: stats.beams_reused,
+                beams_offset_m: stats.beams_offset_m,
                 trace_ms: stats.trace_ms,
                 diffraction_ms: stats.diffraction_ms,
                 tail: stats.tail.as_ref().map(|t| TailStatsOut {

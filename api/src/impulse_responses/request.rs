@@ -10,6 +10,7 @@ use frusta_engine::acoustics::propagation::MAX_ORDER;
 use frusta_engine::acoustics::signal::impulse_response::MAX_SAMPLE_RATE;
 use frusta_engine::acoustics::signal::AirConditions;
 use frusta_engine::acoustics::tail::{MAX_LENGTH_S, MAX_RAYS};
+use frusta_engine::acoustics::MAX_SOURCE_REUSE_M;
 use frusta_engine::acoustics::{SimulationOptions, TailOptions};
 use frusta_engine::scene::OCTAVE_BANDS_HZ;
 use glam::Vec3;
@@ -192,6 +193,15 @@ impl ImpulseResponseRequest {
                     defaults.diffraction_order,
                     0,
                     MAX_DIFFRACTION_ORDER,
+                ),
+            ),
+            (
+                "source_reuse_m",
+                number(
+                    "Streams: how far a source may move from where its frusta were traced before they are traced again, m (within it they are re-mirrored and every path validated exactly, but a path that opens after the move is missed until then; 0 traces at every move)",
+                    defaults.source_reuse_m,
+                    0.0,
+                    MAX_SOURCE_REUSE_M,
                 ),
             ),
         ]

@@ -56,6 +56,10 @@ pub struct SimulationArgs {
     /// Most edges a diffracted path bends around (0: none, at most 2).
     #[arg(long, default_value_t = SimulationOptions::default().diffraction_order)]
     diffraction_order: u32,
+    /// Streams: how far a source may move before its frusta are traced
+    /// again, m (within it they are re-mirrored; 0: trace every move).
+    #[arg(long, default_value_t = SimulationOptions::default().source_reuse_m)]
+    source_reuse: f64,
 }
 
 impl SimulationArgs {
@@ -88,6 +92,7 @@ impl SimulationArgs {
                 })
             },
             diffraction_order: self.diffraction_order,
+            source_reuse_m: self.source_reuse,
             ..defaults
         }
     }

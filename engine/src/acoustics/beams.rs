@@ -16,6 +16,7 @@ use glam::DVec3;
 
 use super::frustum::{Containment, Frustum};
 use super::path::Event;
+use super::surfaces::Surfaces;
 use super::tracer::{events_of, TraceStats, Visit, LISTENER_MARGIN};
 
 #[derive(Clone, Debug, Default)]
@@ -84,6 +85,42 @@ impl Beams {
     /// Per listener, the event sequences of every beam containing it: the
     /// proposals tracing with these listeners gives, in the same order.
     pub fn proposals(&self, listeners: &[DVec3]) -> Vec<Vec<Vec<Event>>> {
+        self.proposals_moved(listeners, &[])
+    }
+
+    /// How far each history entry's frustum apex moves when the source
+    /// moves by `moved`: a beam's apex is its image source, the source
+    /// mirrored in the planes of its reflections (a transmission keeps
+    /// it), so it moves by `moved` mirrored the same way. Parents come
+    /// before their children in the arena (they were pushed first).
+    pub(crate) fn apex_moves(&self, moved: DVec3, surfaces: &Surfaces) -> Vec<DVec3> {
+        let mut out: Vec<DVec3> = Vec::with_capacity(self.history.len());
+        for &(parent, event) in &self.history {
+            let from = if parent == u32::MAX {
+                moved
+            } else {
+                out[parent as usize]
+            };
+            out.push(if event.is_transmission() {
+                from
+            } else {
+                surfaces.group(event.group()).plane.mirror_vector(from)
+            });
+        }
+        out
+    }
+
+    /// [`proposals`](Self::proposals) of the beams with their apexes moved
+    /// by `apex_moves` (per history entry, from [`Self::apex_moves`]; empty
+    /// for none): the beams of a source that moved, re-mirrored instead of
+    /// traced again. Each beam keeps its window's directions, so a path
+    /// that opened only after the move is missed, and every proposal is
+    /// still validated exactly.
+    pub(crate) fn proposals_moved(
+        &self,
+        listeners: &[DVec3],
+        apex_moves: &[DVec3],
+    ) -> Vec<Vec<Vec<Event>>> {
         use rayon::prelude::*;
         let parts: Vec<Vec<Vec<Vec<Event>>>> = self
             .tests
@@ -92,6 +129,10 @@ impl Beams {
             .map(|(tests, last)| {
                 let mut found = vec![Vec::new(); listeners.len()];
                 for (test, &at) in tests.iter().zip(last) {
+                    let test = match apex_moves.get(at as usize) {
+                        Some(&by) => test.shifted(by),
+                        None => *test,
+                    };
                     for (l, &listener) in listeners.iter().enumerate() {
                         if test.contains(listener, LISTENER_MARGIN) {
                             found[l].push(events_of(&self.history, at));
@@ -114,7 +155,7 @@ impl Beams {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::acoustics::tracer::{trace, trace_beams};
+    use crate::acoustics::tracer::{events_of, trace, trace_beams};
     use crate::acoustics::{test_shoebox, AcousticScene, CellAssignment, TraceOptions};
     use crate::deadline::Deadline;
 
@@ -150,5 +191,57 @@ mod tests {
             assert_eq!(beams.len() as u64, stats.frusta - 24);
             assert!(beams.len() > CHUNK, "{}", beams.len());
         }
+    }
+
+    #[test]
+    fn moved_beams_have_the_moved_source_s_image_sources() {
+        // The 10 x 6 x 3 m box: an image source is the source with the
+        // coordinate of each wall's axis reflected, x -> 2c - x, written
+        // here without the planes' mirroring.
+        let scene = AcousticScene::new(&test_shoebox(1, 0.1));
+        let size = DVec3::new(10.0, 6.0, 3.0);
+        let image = |mut p: DVec3, events: &[Event]| {
+            for e in events {
+                let plane = scene.surfaces().group(e.group()).plane;
+                let axis = plane.normal.abs().max_position();
+                let wall = if plane.distance(DVec3::ZERO).abs() < 1e-9 {
+                    0.0
+                } else {
+                    size[axis]
+                };
+                p[axis] = 2.0 * wall - p[axis];
+            }
+            p
+        };
+        let source = DVec3::new(2.0, 3.5, 1.2);
+        let moved = DVec3::new(0.07, -0.05, 0.03);
+        let input = scene.trace_input(source);
+        let options = TraceOptions {
+            max_order: 3,
+            sampling: 2,
+            cells: CellAssignment::Sampled,
+            ..TraceOptions::default()
+        };
+        let beams = trace_beams(&input, &options, &Deadline::none()).unwrap();
+        let moves = beams.apex_moves(moved, scene.surfaces());
+        assert!(beams.len() > 100, "{}", beams.len());
+        for (test, &at) in beams.tests.iter().zip(&beams.last_event) {
+            let events = events_of(&beams.history, at);
+            let traced = test.apex();
+            assert!((traced - image(source, &events)).length() < 1e-9);
+            let apex = test.shifted(moves[at as usize]).apex();
+            let expected = image(source + moved, &events);
+            assert!(
+                (apex - expected).length() < 1e-9,
+                "{events:?}: {apex} {expected}"
+            );
+        }
+        // Not moved: the very proposals of the traced beams.
+        let listeners = [DVec3::new(7.0, 2.0, 1.5), DVec3::new(4.0, 4.0, 2.0)];
+        let still = beams.apex_moves(DVec3::ZERO, scene.surfaces());
+        assert_eq!(
+            beams.proposals_moved(&listeners, &still),
+            beams.proposals(&listeners)
+        );
     }
 }

@@ -1,6 +1,7 @@
 //! [`BeamCache`]: the beams traced from each source of the latest call, so
 //! that listeners moving around fixed sources cost a containment test and
-//! validation instead of a trace.
+//! validation instead of a trace, and so do sources moving within a reach
+//! of where their beams were traced (the beams re-mirrored).
 
 use glam::DVec3;
 
@@ -18,8 +19,8 @@ use crate::Result;
 #[derive(Debug)]
 pub struct BeamCache {
     key: Option<Key>,
-    /// Source position (exact bits) and its beams.
-    entries: Vec<([u64; 3], Beams)>,
+    /// Where the beams were traced from, and the beams.
+    entries: Vec<(DVec3, Beams)>,
     max_beams: usize,
     /// Source position, what its tail's walk depends on besides the key,
     /// and the walk (`None`: it would have taken the kept walks past
@@ -79,13 +80,15 @@ impl BeamCache {
     }
 
     /// Prepares a call from `sources`: forgets everything when the scene,
-    /// the options or the materials changed, and the beams of any source
-    /// not among `sources`.
+    /// the options or the materials changed, and the beams traced farther
+    /// than `reach` from every source (beams at a source's very position
+    /// are kept whatever the reach).
     pub(crate) fn retain(
         &mut self,
         scene: &AcousticScene,
         options: &TraceOptions,
         sources: &[DVec3],
+        reach: f64,
     ) {
         let stale = self
             .key
@@ -100,7 +103,9 @@ impl BeamCache {
             });
         }
         let wanted: Vec<[u64; 3]> = sources.iter().map(|&s| bits(s)).collect();
-        self.entries.retain(|(key, _)| wanted.contains(key));
+        self.entries.retain(|(at, _)| {
+            wanted.contains(&bits(*at)) || sources.iter().any(|&s| at.distance(s) <= reach)
+        });
         self.tails.retain(|(key, _, _)| wanted.contains(key));
     }
 
@@ -164,38 +169,57 @@ impl BeamCache {
         Ok((traced, reused))
     }
 
-    /// [`AcousticScene::find_paths`] from the kept beams of `source`, traced
-    /// first when there are none; and whether they were kept. Call
-    /// [`Self::retain`] first.
+    /// [`AcousticScene::find_paths`] from the kept beams traced at
+    /// `source`, or else the nearest within `reach` of it (re-mirrored for
+    /// the move: [`Beams::proposals_moved`]), traced and kept first when
+    /// there are none; and, when kept beams answered, how far from
+    /// `source` they were traced. Call [`Self::retain`] first.
     pub(crate) fn find_paths(
         &mut self,
         scene: &AcousticScene,
         source: DVec3,
         listeners: &[DVec3],
         options: &TraceOptions,
+        reach: f64,
         deadline: &Deadline,
-    ) -> Result<(FoundPaths, bool)> {
+    ) -> Result<(FoundPaths, Option<f64>)> {
         let key = bits(source);
-        let kept = self.entries.iter().position(|(k, _)| *k == key);
-        let (proposals, stats, reused) = match kept {
+        let kept = match self.entries.iter().position(|(at, _)| bits(*at) == key) {
+            Some(i) => Some(i),
+            None => self
+                .entries
+                .iter()
+                .enumerate()
+                .map(|(i, (at, _))| (i, at.distance(source)))
+                .filter(|&(_, d)| d <= reach)
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(i, _)| i),
+        };
+        let (proposals, stats, offset) = match kept {
             Some(i) => {
-                let beams = &self.entries[i].1;
-                let proposals = beams.proposals(listeners);
+                let (at, beams) = &self.entries[i];
+                let moved = source - *at;
+                let moves = if moved == DVec3::ZERO {
+                    Vec::new()
+                } else {
+                    beams.apex_moves(moved, scene.surfaces())
+                };
+                let proposals = beams.proposals_moved(listeners, &moves);
                 let mut stats = beams.stats();
                 stats.proposals = proposals.iter().map(|p| p.len() as u64).sum();
-                (proposals, stats, true)
+                (proposals, stats, Some(moved.length()))
             }
             None => {
                 let input = scene.trace_input(source);
                 let (proposals, stats, beams) =
                     trace_keeping(&input, listeners, options, deadline, self.max_beams)?;
                 if let Some(beams) = beams {
-                    self.entries.push((key, beams));
+                    self.entries.push((source, beams));
                 }
-                (proposals, stats, false)
+                (proposals, stats, None)
             }
         };
         let paths = scene.validate_proposals(source, listeners, proposals, deadline)?;
-        Ok((FoundPaths { paths, stats }, reused))
+        Ok((FoundPaths { paths, stats }, offset))
     }
 }

@@ -56,6 +56,20 @@ pub(crate) struct Containment {
 }
 
 impl Containment {
+    /// The beam with its apex moved by `by`, its window's directions and
+    /// near plane kept: the same beam from a source that moved, the move
+    /// mirrored in its reflections (see [`super::beams`]).
+    #[inline]
+    pub(crate) fn shifted(mut self, by: DVec3) -> Self {
+        self.apex += by;
+        self
+    }
+
+    #[cfg(test)]
+    pub(crate) fn apex(&self) -> DVec3 {
+        self.apex
+    }
+
     /// See [`Frustum::contains`].
     #[inline]
     pub fn contains(&self, p: DVec3, margin: f64) -> bool {

@@ -44,7 +44,8 @@ pub use crate::deadline::Cancel;
 pub use beams::Beams;
 pub use cache::BeamCache;
 pub use propagation::{
-    simulate, simulate_cached, simulate_until, Response, SimulationOptions, SoundPath, SurfaceShare,
+    simulate, simulate_cached, simulate_until, Response, SimulationOptions, SoundPath,
+    SurfaceShare, MAX_SOURCE_REUSE_M,
 };
 pub use scene::{AcousticScene, FoundPaths};
 pub use tail::{Tail, TailOptions};

@@ -60,7 +60,17 @@ pub struct SimulationOptions {
     /// detailed scenes (every pair of edges the source and the listener
     /// see).
     pub diffraction_order: u32,
+    /// How far a source may move from where its beams were traced before
+    /// a stream traces them again, m: within it the kept beams are
+    /// re-mirrored for the new position and every proposal validated
+    /// exactly (no path is ever false), but a path that opens only after
+    /// the move is missed until the next trace. 0 traces at every move.
+    /// Only streams keep beams; other calls always trace.
+    pub source_reuse_m: f64,
 }
+
+/// The largest [`SimulationOptions::source_reuse_m`].
+pub const MAX_SOURCE_REUSE_M: f64 = 10.0;
 
 impl Default for SimulationOptions {
     /// The tracer's defaults, all bands, air at 20 °C and 50 % RH, 48 kHz mono.
@@ -79,6 +89,7 @@ impl Default for SimulationOptions {
             listener_frame: signal::ListenerFrame::default(),
             tail: Tail::default(),
             diffraction_order: 1,
+            source_reuse_m: 0.25,
         }
     }
 }
@@ -155,6 +166,15 @@ impl SimulationOptions {
                 reason: format!("{} exceeds {MAX_DIFFRACTION_ORDER}", self.diffraction_order),
             });
         }
+        if !(0.0..=MAX_SOURCE_REUSE_M).contains(&self.source_reuse_m) {
+            return Err(Error::InvalidOption {
+                field: "source_reuse_m".into(),
+                reason: format!(
+                    "{} must lie in [0, {MAX_SOURCE_REUSE_M}] m",
+                    self.source_reuse_m
+                ),
+            });
+        }
         self.tail_options()?;
         let mut active_bands = [false; BAND_COUNT];
         for b in self.band_indices()? {
@@ -216,6 +236,9 @@ pub struct SimulationStats {
     pub paths: usize,
     /// Whether the source's beams came from the cache instead of a trace.
     pub beams_reused: bool,
+    /// How far from this source the reused beams were traced, m (0 when
+    /// traced here; see [`SimulationOptions::source_reuse_m`]).
+    pub beams_offset_m: f64,
     /// Time to find the paths: tracing (unless reused), proposing and
     /// validating.
     pub trace_ms: f64,
@@ -328,18 +351,28 @@ fn simulate_with(
         .map(|(i, &p)| scene.check_point(&format!("source {i}"), p))
         .collect::<Result<_>>()?;
     if let Some(cache) = cache.as_deref_mut() {
-        cache.retain(scene, &trace_options, &source_points);
+        cache.retain(
+            scene,
+            &trace_options,
+            &source_points,
+            options.source_reuse_m,
+        );
     }
     let mut out = Vec::with_capacity(sources.len() * listeners.len());
     for (s, &source) in source_points.iter().enumerate() {
         let trace_start = Instant::now();
-        let (found, beams_reused) = match cache.as_deref_mut() {
-            Some(cache) => {
-                cache.find_paths(scene, source, &listener_points, &trace_options, &deadline)?
-            }
+        let (found, beams_offset) = match cache.as_deref_mut() {
+            Some(cache) => cache.find_paths(
+                scene,
+                source,
+                &listener_points,
+                &trace_options,
+                options.source_reuse_m,
+                &deadline,
+            )?,
             None => (
                 scene.find_paths_until(source, &listener_points, &trace_options, &deadline)?,
-                false,
+                None,
             ),
         };
         let trace_ms = trace_start.elapsed().as_secs_f64() * 1e3;
@@ -428,7 +461,8 @@ fn simulate_with(
                     sample_rays: found.stats.sample_rays,
                     proposals: found.stats.proposals,
                     paths: sound_paths.len(),
-                    beams_reused,
+                    beams_reused: beams_offset.is_some(),
+                    beams_offset_m: beams_offset.unwrap_or(0.0),
                     trace_ms,
                     diffraction_ms,
                     tail: tail.as_ref().map(|t| t.stats.clone()),
