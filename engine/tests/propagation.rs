@@ -139,7 +139,7 @@ mod cached {
 
     use frusta_engine::acoustics::{
         simulate, simulate_cached, simulate_until, AcousticScene, BeamCache, CellAssignment,
-        Response, SimulationOptions, SoundPath, Tail,
+        Response, SimulationOptions, SoundPath, Tail, TailOptions,
     };
     use frusta_engine::geometry::RigidTransform;
     use frusta_engine::Error;
@@ -313,6 +313,67 @@ mod cached {
         let r =
             simulate_cached(&scene, &source, &listener, &exact, &mut cache, None, None).unwrap();
         assert!(!r[0].stats.beams_reused);
+    }
+
+    #[test]
+    fn a_moving_source_renews_its_tail_a_chunk_at_a_time_and_ends_on_the_fresh_one() {
+        let scene = AcousticScene::new(&shoebox(1, 0.2));
+        let listener = [Vec3::new(7.3, 1.9, 1.7)];
+        let options = SimulationOptions {
+            tail: Tail::Stochastic(TailOptions {
+                rays: 256,
+                max_length_s: 0.3,
+                ..Default::default()
+            }),
+            ..options(2)
+        };
+        let moving = SimulationOptions {
+            source_reuse_m: 0.25,
+            ..options.clone()
+        };
+        let mut cache = BeamCache::default();
+        let tail_stats = |r: &Response| r.stats.tail.clone().unwrap();
+        let at = |x: f32| [Vec3::new(x, 3.5, 1.2)];
+        let first =
+            simulate_cached(&scene, &at(2.0), &listener, &moving, &mut cache, None, None).unwrap();
+        assert!(!tail_stats(&first[0]).walk_reused);
+        // Three moves of 5 cm: each walks one chunk again from the new
+        // position, the others are from at most 15 cm away.
+        for k in 1..=3 {
+            let x = 2.0 + 0.05 * k as f32;
+            let r = simulate_cached(&scene, &at(x), &listener, &moving, &mut cache, None, None)
+                .unwrap();
+            let t = tail_stats(&r[0]);
+            assert!(t.walk_reused, "move {k}");
+            assert!(
+                (t.walk_offset_m - f64::from(x - 2.0)).abs() < 1e-6,
+                "move {k}: {}",
+                t.walk_offset_m
+            );
+        }
+        // Standing still, the seven chunks walked elsewhere are renewed,
+        // one a call; then the tail is the one a fresh walk from there
+        // gives.
+        let still = at(2.15);
+        let fresh = simulate(&scene, &still, &listener, &options).unwrap();
+        for call in 0..8 {
+            let r = simulate_cached(&scene, &still, &listener, &moving, &mut cache, None, None)
+                .unwrap();
+            let t = tail_stats(&r[0]);
+            assert!(t.walk_reused);
+            if call < 6 {
+                assert!(t.walk_offset_m > 0.0, "call {call}");
+                assert_ne!(r[0].impulse_response, fresh[0].impulse_response);
+            } else {
+                assert_eq!(t.walk_offset_m, 0.0, "call {call}");
+                assert_eq!(r[0].impulse_response, fresh[0].impulse_response);
+                assert_eq!(r[0].parameters, fresh[0].parameters);
+            }
+        }
+        // A jump past the reach walks afresh.
+        let r =
+            simulate_cached(&scene, &at(3.0), &listener, &moving, &mut cache, None, None).unwrap();
+        assert!(!tail_stats(&r[0]).walk_reused);
     }
 
     #[test]

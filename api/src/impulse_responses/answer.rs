@@ -138,6 +138,11 @@ pub struct TailStatsOut {
     /// the scene unchanged): only the listeners' shadow rays and sphere
     /// tests were done.
     pub walk_reused: bool,
+    /// How far from this source the kept walk's rays started, m, at most:
+    /// a moving source's walk is renewed an eighth of its rays per update
+    /// within `source_reuse_m` (0 when every ray started here).
+    #[serde(default)]
+    pub walk_offset_m: f64,
     pub trace_ms: f64,
 }
 
@@ -185,6 +190,7 @@ impl From<&Response> for PairResponse {
                     receiver_radius_m: t.receiver_radius_m,
                     volume_m3: t.volume_m3,
                     walk_reused: t.walk_reused,
+                    walk_offset_m: t.walk_offset_m,
                     trace_ms: t.trace_ms,
                 }),
                 total_ms: stats.total_ms,

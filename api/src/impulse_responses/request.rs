@@ -198,7 +198,7 @@ impl ImpulseResponseRequest {
             (
                 "source_reuse_m",
                 number(
-                    "Streams: how far a source may move from where its frusta were traced before they are traced again, m (within it they are re-mirrored and every path validated exactly, but a path that opens after the move is missed until then; 0 traces at every move)",
+                    "Streams: how far a source may move from where its frusta were traced before they are traced again, m (within it they are re-mirrored and every path validated exactly, but a path that opens after the move is missed until then; the tail's walk is renewed an eighth of its rays per update; 0 traces and walks at every move)",
                     defaults.source_reuse_m,
                     0.0,
                     MAX_SOURCE_REUSE_M,

@@ -22,10 +22,12 @@ pub struct BeamCache {
     /// Where the beams were traced from, and the beams.
     entries: Vec<(DVec3, Beams)>,
     max_beams: usize,
-    /// Source position, what its tail's walk depends on besides the key,
-    /// and the walk (`None`: it would have taken the kept walks past
-    /// [`Self::max_tail_events`] events in all, so it is traced each time).
-    tails: Vec<([u64; 3], TailKey, Option<TailRecord>)>,
+    /// Tail walks: what a walk depends on besides the key and the source,
+    /// and the walk, whose chunks say where they were walked from.
+    /// Sources whose walk would take the kept ones past
+    /// [`Self::max_tail_events`] events in all keep none and are traced
+    /// each time.
+    tails: Vec<(TailKey, TailRecord)>,
     max_tail_events: usize,
 }
 
@@ -62,6 +64,13 @@ struct Key {
 
 fn bits(p: DVec3) -> [u64; 3] {
     p.to_array().map(f64::to_bits)
+}
+
+/// Whether every point of `starts` is `source`, or within `reach` of it.
+fn within(starts: &[DVec3], source: DVec3, reach: f64) -> bool {
+    starts
+        .iter()
+        .all(|&at| bits(at) == bits(source) || at.distance(source) <= reach)
 }
 
 impl BeamCache {
@@ -106,7 +115,8 @@ impl BeamCache {
         self.entries.retain(|(at, _)| {
             wanted.contains(&bits(*at)) || sources.iter().any(|&s| at.distance(s) <= reach)
         });
-        self.tails.retain(|(key, _, _)| wanted.contains(key));
+        self.tails
+            .retain(|(_, record)| sources.iter().any(|&s| within(record.sources(), s, reach)));
     }
 
     /// The most events the kept tail walks may hold together.
@@ -120,53 +130,94 @@ impl BeamCache {
         self
     }
 
-    /// The late reverberation of `source` at `listeners` from its kept
-    /// walk, walked and kept first when there is none; and whether it was
-    /// kept. Call [`Self::retain`] first.
+    /// The late reverberation of `source` at `listeners` from a kept walk
+    /// whose chunks all started within `reach` of it, walked and kept
+    /// first when there is none. A kept walk with chunks from elsewhere
+    /// (a source that moved) has the one that started farthest walked
+    /// again from `source` first: a moving source renews an eighth of its
+    /// rays per call, and once it stops, its tail is the one a walk from
+    /// there gives, to the bit. Call [`Self::retain`] first.
     pub(crate) fn tail(
         &mut self,
         scene: &AcousticScene,
         source: DVec3,
         listeners: &[DVec3],
         input: &TailInput,
+        reach: f64,
         deadline: &Deadline,
-    ) -> Result<(TracedTail, bool)> {
+    ) -> Result<TracedTail> {
         let start = std::time::Instant::now();
         let key = TailKey {
             options: input.options.clone(),
             speed_of_sound: input.speed_of_sound.to_bits(),
         };
-        let at = bits(source);
+        let offset = |record: &TailRecord| {
+            record
+                .sources()
+                .iter()
+                .map(|at| at.distance(source))
+                .fold(0.0, f64::max)
+        };
         let kept = self
             .tails
             .iter()
-            .position(|(s, k, _)| *s == at && *k == key);
-        let (i, reused) = match kept {
-            Some(i) => (i, true),
-            None => {
-                self.tails.retain(|(s, _, _)| *s != at);
-                let held: usize = self
-                    .tails
+            .enumerate()
+            .filter(|(_, (k, record))| *k == key && within(record.sources(), source, reach))
+            .min_by(|a, b| offset(&a.1 .1).total_cmp(&offset(&b.1 .1)))
+            .map(|(i, _)| i);
+        let held = |tails: &[(TailKey, TailRecord)], except: Option<usize>| -> usize {
+            tails
+                .iter()
+                .enumerate()
+                .filter(|&(i, _)| Some(i) != except)
+                .map(|(_, t)| t.1.events())
+                .sum()
+        };
+        let i = match kept {
+            Some(i) => {
+                let room = self
+                    .max_tail_events
+                    .saturating_sub(held(&self.tails, Some(i)));
+                let record = &mut self.tails[i].1;
+                let farthest = record
+                    .sources()
                     .iter()
-                    .flat_map(|t| &t.2)
-                    .map(TailRecord::events)
-                    .sum();
-                let room = self.max_tail_events.saturating_sub(held);
-                let record = record_tail(scene, source, input, room, deadline)?;
-                self.tails.push((at, key, record));
-                (self.tails.len() - 1, false)
+                    .enumerate()
+                    .filter(|(_, at)| bits(**at) != bits(source))
+                    .max_by(|a, b| a.1.distance(source).total_cmp(&b.1.distance(source)))
+                    .map(|(chunk, _)| chunk);
+                let renewed = match farthest {
+                    Some(chunk) => record.rewalk(chunk, scene, source, input, room, deadline)?,
+                    None => true,
+                };
+                if renewed {
+                    Some(i)
+                } else {
+                    self.tails.remove(i);
+                    None
+                }
+            }
+            None => {
+                let room = self.max_tail_events.saturating_sub(held(&self.tails, None));
+                record_tail(scene, source, input, room, deadline)?.map(|record| {
+                    self.tails.push((key, record));
+                    self.tails.len() - 1
+                })
             }
         };
-        let (mut traced, reused) = match &self.tails[i].2 {
-            Some(record) => (record.replay(scene, listeners, input, deadline)?, reused),
-            None => (
-                trace_tail(scene, source, listeners, input, deadline)?,
-                false,
-            ),
+        let mut traced = match i {
+            Some(i) => {
+                let record = &self.tails[i].1;
+                let mut traced = record.replay(scene, listeners, input, deadline)?;
+                traced.stats.walk_reused = kept.is_some();
+                traced.stats.walk_offset_m = offset(record);
+                traced
+            }
+            None => trace_tail(scene, source, listeners, input, deadline)?,
         };
         // The walk's time too, when this call walked.
         traced.stats.trace_ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok((traced, reused))
+        Ok(traced)
     }
 
     /// [`AcousticScene::find_paths`] from the kept beams traced at

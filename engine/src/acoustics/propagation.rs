@@ -64,8 +64,10 @@ pub struct SimulationOptions {
     /// a stream traces them again, m: within it the kept beams are
     /// re-mirrored for the new position and every proposal validated
     /// exactly (no path is ever false), but a path that opens only after
-    /// the move is missed until the next trace. 0 traces at every move.
-    /// Only streams keep beams; other calls always trace.
+    /// the move is missed until the next trace. The tail's walk is kept
+    /// likewise, an eighth of its rays walked again from the new position
+    /// per call. 0 traces and walks at every move. Only streams keep
+    /// beams and walks; other calls always trace.
     pub source_reuse_m: f64,
 }
 
@@ -386,12 +388,14 @@ fn simulate_with(
                     air: options.air.as_ref(),
                 };
                 Some(match cache.as_deref_mut() {
-                    Some(cache) => {
-                        let (mut traced, reused) =
-                            cache.tail(scene, source, &listener_points, &input, &deadline)?;
-                        traced.stats.walk_reused = reused;
-                        traced
-                    }
+                    Some(cache) => cache.tail(
+                        scene,
+                        source,
+                        &listener_points,
+                        &input,
+                        options.source_reuse_m,
+                        &deadline,
+                    )?,
                     None => trace_tail(scene, source, &listener_points, &input, &deadline)?,
                 })
             }

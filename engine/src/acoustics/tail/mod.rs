@@ -209,8 +209,12 @@ pub struct TailStats {
     /// The room volume the sphere and the reflection density were sized by.
     pub volume_m3: f64,
     /// Whether the rays' walk was a stream's kept one (only the listeners'
-    /// shadow rays and sphere tests were done).
+    /// shadow rays and sphere tests were done, and for a source that moved
+    /// one chunk of the rays walked again from where it is now).
     pub walk_reused: bool,
+    /// How far from this source the kept walk's rays started, m, at most
+    /// (0 when all were walked from here).
+    pub walk_offset_m: f64,
     pub trace_ms: f64,
 }
 
@@ -261,12 +265,16 @@ pub(crate) fn trace_tail(
 
 /// The walk of one source's rays, kept to hand to any listeners later
 /// ([`TailRecord::replay`]): the walk is most of a tail's work, and it
-/// does not depend on the listeners.
+/// does not depend on the listeners. A chunk may be walked again from a
+/// source that moved ([`TailRecord::rewalk`]), so a moving source's tail
+/// is renewed a chunk at a time.
 #[derive(Clone, Debug)]
 pub struct TailRecord {
     /// The events of each chunk of rays, in walk order.
     chunks: Vec<Vec<walk::Recorded>>,
-    reflections: u64,
+    /// Per chunk, where its rays started and the surface hits they made.
+    sources: Vec<DVec3>,
+    hits: Vec<u64>,
     rays: u32,
 }
 
@@ -275,6 +283,68 @@ impl TailRecord {
     pub fn events(&self) -> usize {
         self.chunks.iter().map(Vec::len).sum()
     }
+
+    /// Where each chunk's rays started.
+    pub(crate) fn sources(&self) -> &[DVec3] {
+        &self.sources
+    }
+
+    /// Walks chunk `chunk` again from `source`, in place of its events;
+    /// `false`, the record unchanged, when they would pass `max_events`
+    /// over [`CHUNKS`]. The chunk's rays are the ones a record made at
+    /// `source` has there, so once every chunk is walked from one source
+    /// the record is the one [`record_tail`] makes there, to the bit.
+    pub(crate) fn rewalk(
+        &mut self,
+        chunk: usize,
+        scene: &AcousticScene,
+        source: DVec3,
+        input: &TailInput,
+        max_events: usize,
+        deadline: &Deadline,
+    ) -> Result<bool> {
+        let room = Room::of(scene, input);
+        let walk = Walk::new(scene, source, input, room.free_path);
+        let rays = chunk_ranges(input.options.rays)[chunk].clone();
+        // Two halves on two threads, joined in ray order.
+        let mid = rays.start + rays.len() / 2;
+        let per_chunk = max_events / CHUNKS;
+        let (first, second) = rayon::join(
+            || walk_events(&walk, rays.start..mid, per_chunk, deadline),
+            || walk_events(&walk, mid..rays.end, per_chunk, deadline),
+        );
+        let (Some((mut events, a)), Some((more, b))) = (first?, second?) else {
+            return Ok(false);
+        };
+        if events.len() + more.len() > per_chunk {
+            return Ok(false);
+        }
+        events.extend(more);
+        self.chunks[chunk] = events;
+        self.sources[chunk] = source;
+        self.hits[chunk] = a + b;
+        Ok(true)
+    }
+}
+
+/// The events of rays `rays`, and their surface hits; `None` past
+/// `max_events`.
+fn walk_events(
+    walk: &Walk,
+    rays: std::ops::Range<usize>,
+    max_events: usize,
+    deadline: &Deadline,
+) -> Result<Option<(Vec<walk::Recorded>, u64)>> {
+    let mut events = Vec::new();
+    let mut full = false;
+    let hits = walk.rays(rays, deadline, &mut |e| {
+        if events.len() < max_events {
+            events.push(walk::Recorded::from(&e));
+        } else {
+            full = true;
+        }
+    })?;
+    Ok((!full).then_some((events, hits)))
 }
 
 /// Walks the rays of `source` and keeps their events, unless they number
@@ -291,25 +361,16 @@ pub(crate) fn record_tail(
     let per_chunk = max_events / CHUNKS;
     let chunks: Vec<Option<(Vec<walk::Recorded>, u64)>> = chunk_ranges(input.options.rays)
         .into_par_iter()
-        .map(|rays| {
-            let mut events = Vec::new();
-            let mut full = false;
-            let hits = walk.rays(rays, deadline, &mut |e| {
-                if events.len() < per_chunk {
-                    events.push(walk::Recorded::from(&e));
-                } else {
-                    full = true;
-                }
-            })?;
-            Ok((!full).then_some((events, hits)))
-        })
+        .map(|rays| walk_events(&walk, rays, per_chunk, deadline))
         .collect::<Result<_>>()?;
     let Some(chunks) = chunks.into_iter().collect::<Option<Vec<_>>>() else {
         return Ok(None);
     };
+    let (chunks, hits) = chunks.into_iter().unzip();
     Ok(Some(TailRecord {
-        reflections: chunks.iter().map(|c| c.1).sum(),
-        chunks: chunks.into_iter().map(|c| c.0).collect(),
+        chunks,
+        sources: vec![source; CHUNKS],
+        hits,
         rays: input.options.rays,
     }))
 }
@@ -342,7 +403,7 @@ impl TailRecord {
             .collect::<Result<_>>()?;
         let mut traced = summed(&chunks, &room, input, start);
         traced.stats.rays = u64::from(self.rays);
-        traced.stats.reflections = self.reflections;
+        traced.stats.reflections = self.hits.iter().sum();
         Ok(traced)
     }
 }
@@ -415,6 +476,7 @@ fn summed(chunks: &[Tally], room: &Room, input: &TailInput, start: Instant) -> T
             receiver_radius_m: room.radius,
             volume_m3: room.volume,
             walk_reused: false,
+            walk_offset_m: 0.0,
             trace_ms: start.elapsed().as_secs_f64() * 1e3,
         },
     }
