@@ -370,9 +370,21 @@ mod cached {
                 assert_eq!(r[0].parameters, fresh[0].parameters);
             }
         }
+        // Moving on steadily, no ray started more than the reach away.
+        for k in 1..=12 {
+            let x = 2.15 + 0.05 * k as f32;
+            let r = simulate_cached(&scene, &at(x), &listener, &moving, &mut cache, None, None)
+                .unwrap();
+            let t = tail_stats(&r[0]);
+            assert!(
+                t.walk_reused && t.walk_offset_m <= 0.25,
+                "{x}: {}",
+                t.walk_offset_m
+            );
+        }
         // A jump past the reach walks afresh.
         let r =
-            simulate_cached(&scene, &at(3.0), &listener, &moving, &mut cache, None, None).unwrap();
+            simulate_cached(&scene, &at(4.0), &listener, &moving, &mut cache, None, None).unwrap();
         assert!(!tail_stats(&r[0]).walk_reused);
     }
 

@@ -66,11 +66,9 @@ fn bits(p: DVec3) -> [u64; 3] {
     p.to_array().map(f64::to_bits)
 }
 
-/// Whether every point of `starts` is `source`, or within `reach` of it.
-fn within(starts: &[DVec3], source: DVec3, reach: f64) -> bool {
-    starts
-        .iter()
-        .all(|&at| bits(at) == bits(source) || at.distance(source) <= reach)
+/// Whether `at` is `source`, or within `reach` of it.
+fn near(at: DVec3, source: DVec3, reach: f64) -> bool {
+    bits(at) == bits(source) || at.distance(source) <= reach
 }
 
 impl BeamCache {
@@ -115,8 +113,12 @@ impl BeamCache {
         self.entries.retain(|(at, _)| {
             wanted.contains(&bits(*at)) || sources.iter().any(|&s| at.distance(s) <= reach)
         });
-        self.tails
-            .retain(|(_, record)| sources.iter().any(|&s| within(record.sources(), s, reach)));
+        self.tails.retain(|(_, record)| {
+            record
+                .sources()
+                .iter()
+                .any(|&at| sources.iter().any(|&s| near(at, s, reach)))
+        });
     }
 
     /// The most events the kept tail walks may hold together.
@@ -131,12 +133,14 @@ impl BeamCache {
     }
 
     /// The late reverberation of `source` at `listeners` from a kept walk
-    /// whose chunks all started within `reach` of it, walked and kept
-    /// first when there is none. A kept walk with chunks from elsewhere
-    /// (a source that moved) has the one that started farthest walked
-    /// again from `source` first: a moving source renews an eighth of its
-    /// rays per call, and once it stops, its tail is the one a walk from
-    /// there gives, to the bit. Call [`Self::retain`] first.
+    /// with chunks that started within `reach` of it, walked and kept
+    /// first when there is none. A kept walk's chunks from elsewhere (a
+    /// source that moved) are walked again from `source` first: every
+    /// one that started beyond the reach, and else the one that started
+    /// farthest. A source moving steadily renews a few eighths of its
+    /// rays per call and never all at once; once it stops, its tail is
+    /// the one a walk from there gives, to the bit. Call
+    /// [`Self::retain`] first.
     pub(crate) fn tail(
         &mut self,
         scene: &AcousticScene,
@@ -162,7 +166,9 @@ impl BeamCache {
             .tails
             .iter()
             .enumerate()
-            .filter(|(_, (k, record))| *k == key && within(record.sources(), source, reach))
+            .filter(|(_, (k, record))| {
+                *k == key && record.sources().iter().any(|&at| near(at, source, reach))
+            })
             .min_by(|a, b| offset(&a.1 .1).total_cmp(&offset(&b.1 .1)))
             .map(|(i, _)| i);
         let held = |tails: &[(TailKey, TailRecord)], except: Option<usize>| -> usize {
@@ -179,17 +185,28 @@ impl BeamCache {
                     .max_tail_events
                     .saturating_sub(held(&self.tails, Some(i)));
                 let record = &mut self.tails[i].1;
-                let farthest = record
-                    .sources()
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, at)| bits(**at) != bits(source))
-                    .max_by(|a, b| a.1.distance(source).total_cmp(&b.1.distance(source)))
-                    .map(|(chunk, _)| chunk);
-                let renewed = match farthest {
-                    Some(chunk) => record.rewalk(chunk, scene, source, input, room, deadline)?,
-                    None => true,
-                };
+                let starts = record.sources();
+                let mut renew: Vec<usize> = (0..starts.len())
+                    .filter(|&c| !near(starts[c], source, reach))
+                    .collect();
+                if renew.is_empty() {
+                    renew.extend(
+                        (0..starts.len())
+                            .filter(|&c| bits(starts[c]) != bits(source))
+                            .max_by(|&a, &b| {
+                                starts[a]
+                                    .distance(source)
+                                    .total_cmp(&starts[b].distance(source))
+                            }),
+                    );
+                }
+                let mut renewed = true;
+                for chunk in renew {
+                    renewed &= record.rewalk(chunk, scene, source, input, room, deadline)?;
+                    if !renewed {
+                        break;
+                    }
+                }
                 if renewed {
                     Some(i)
                 } else {
