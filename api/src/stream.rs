@@ -43,7 +43,8 @@ pub struct StreamUpdate {
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum StreamFrame {
     /// One source-listener pair; its samples follow as a binary frame.
-    ImpulseResponse(StreamAnswer),
+    /// Boxed: it is several times the size of the other frames.
+    ImpulseResponse(Box<StreamAnswer>),
     /// Object moves sent before any source and listener, applied.
     ObjectsUpdated(ObjectsUpdated),
     /// The collision subscription's answer for this update.

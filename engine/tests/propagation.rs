@@ -304,6 +304,15 @@ mod cached {
         }
         println!("moving source: {found} of {total} paths");
         assert!(found as f64 >= 0.95 * total as f64, "{found} of {total}");
+        // Asked again from where it last reused the beams, the source has
+        // stopped: it is traced there, then answered from that trace.
+        let here = [Vec3::new(1.0 + 0.04 * 8.0, 9.0, 1.5)];
+        let again = |cache: &mut BeamCache| {
+            simulate_cached(&scene, &here, &listener, &options, cache, None, None).unwrap()
+        };
+        assert!(!again(&mut cache)[0].stats.beams_reused);
+        let r = again(&mut cache);
+        assert!(r[0].stats.beams_reused && r[0].stats.beams_offset_m == 0.0);
         // Without a reach every move is traced.
         let exact = SimulationOptions {
             source_reuse_m: 0.0,
@@ -386,6 +395,39 @@ mod cached {
         let r =
             simulate_cached(&scene, &at(4.0), &listener, &moving, &mut cache, None, None).unwrap();
         assert!(!tail_stats(&r[0]).walk_reused);
+    }
+
+    #[test]
+    fn sources_near_each_other_end_with_beams_and_walks_of_their_own() {
+        let scene = AcousticScene::new(&shoebox(1, 0.2));
+        let sources = [Vec3::new(2.0, 3.5, 1.2), Vec3::new(2.1, 3.5, 1.2)];
+        let listener = [Vec3::new(7.3, 1.9, 1.7)];
+        let options = SimulationOptions {
+            tail: Tail::Stochastic(TailOptions {
+                rays: 128,
+                max_length_s: 0.2,
+                ..Default::default()
+            }),
+            source_reuse_m: 0.25,
+            ..options(2)
+        };
+        let mut cache = BeamCache::default();
+        let mut call = || {
+            simulate_cached(
+                &scene, &sources, &listener, &options, &mut cache, None, None,
+            )
+            .unwrap()
+        };
+        call();
+        call();
+        let fresh = simulate(&scene, &sources, &listener, &options).unwrap();
+        let r = call();
+        for (r, f) in r.iter().zip(&fresh) {
+            assert!(r.stats.beams_reused && r.stats.beams_offset_m == 0.0);
+            let t = r.stats.tail.as_ref().unwrap();
+            assert!(t.walk_reused && t.walk_offset_m == 0.0);
+            assert_eq!(r.impulse_response, f.impulse_response);
+        }
     }
 
     #[test]

@@ -114,10 +114,7 @@ impl Stream {
             return Ok(match serde_json::from_str(&text)? {
                 StreamFrame::ImpulseResponse(answer) => {
                     let samples = self.samples(&answer)?;
-                    Received::ImpulseResponse {
-                        answer: Box::new(answer),
-                        samples,
-                    }
+                    Received::ImpulseResponse { answer, samples }
                 }
                 StreamFrame::ObjectsUpdated(updated) => Received::ObjectsUpdated(updated),
                 StreamFrame::Collisions(found) => Received::Collisions(Box::new(found)),

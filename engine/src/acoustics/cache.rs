@@ -13,22 +13,35 @@ use crate::deadline::Deadline;
 use crate::Result;
 
 /// Beams per source, valid for one scene state, trace options and
-/// material table. Holds only the sources of the latest call, and at most
-/// [`Self::max_beams`] beams per source (about 160 bytes each): a trace
-/// with more keeps none and is simply done again next time.
+/// material table. Holds the beams traced near the sources of the latest
+/// call, each trace of at most [`Self::max_beams`] beams (about 160 bytes
+/// each): a trace with more keeps none and is simply done again next time.
 #[derive(Debug)]
 pub struct BeamCache {
     key: Option<Key>,
-    /// Where the beams were traced from, and the beams.
-    entries: Vec<(DVec3, Beams)>,
+    /// The beams, where they were traced from, and the last source that
+    /// reused them from elsewhere.
+    entries: Vec<Entry>,
     max_beams: usize,
     /// Tail walks: what a walk depends on besides the key and the source,
-    /// and the walk, whose chunks say where they were walked from.
-    /// Sources whose walk would take the kept ones past
-    /// [`Self::max_tail_events`] events in all keep none and are traced
-    /// each time.
-    tails: Vec<(TailKey, TailRecord)>,
+    /// the walk (whose chunks say where they were walked from), and the
+    /// call that last took it. Sources whose walk would take the kept ones
+    /// past [`Self::max_tail_events`] events in all keep none and are
+    /// traced each time.
+    tails: Vec<(TailKey, TailRecord, u64)>,
     max_tail_events: usize,
+    /// The latest call: its number and its sources.
+    call: u64,
+    sources: Vec<[u64; 3]>,
+}
+
+#[derive(Debug)]
+struct Entry {
+    at: DVec3,
+    /// The source that last reused these beams from another position:
+    /// asked again from there, it has stopped, and is traced where it is.
+    reused_by: Option<[u64; 3]>,
+    beams: Beams,
 }
 
 /// What a tail's walk depends on beyond the scene state and the trace
@@ -79,6 +92,8 @@ impl BeamCache {
             max_beams,
             tails: Vec::new(),
             max_tail_events: DEFAULT_MAX_TAIL_EVENTS,
+            call: 0,
+            sources: Vec::new(),
         }
     }
 
@@ -109,11 +124,11 @@ impl BeamCache {
                 options: options.clone(),
             });
         }
-        let wanted: Vec<[u64; 3]> = sources.iter().map(|&s| bits(s)).collect();
-        self.entries.retain(|(at, _)| {
-            wanted.contains(&bits(*at)) || sources.iter().any(|&s| at.distance(s) <= reach)
-        });
-        self.tails.retain(|(_, record)| {
+        self.call += 1;
+        self.sources = sources.iter().map(|&s| bits(s)).collect();
+        self.entries
+            .retain(|e| sources.iter().any(|&s| near(e.at, s, reach)));
+        self.tails.retain(|(_, record, _)| {
             record
                 .sources()
                 .iter()
@@ -155,6 +170,9 @@ impl BeamCache {
             options: input.options.clone(),
             speed_of_sound: input.speed_of_sound.to_bits(),
         };
+        // One call has one set of tail options: walks made with others
+        // only take room.
+        self.tails.retain(|t| t.0 == key);
         let offset = |record: &TailRecord| {
             record
                 .sources()
@@ -166,12 +184,14 @@ impl BeamCache {
             .tails
             .iter()
             .enumerate()
-            .filter(|(_, (k, record))| {
-                *k == key && record.sources().iter().any(|&at| near(at, source, reach))
+            // A walk another source of this call took is not shared: the
+            // two would walk its chunks back and forth for ever.
+            .filter(|(_, (_, record, call))| {
+                *call != self.call && record.sources().iter().any(|&at| near(at, source, reach))
             })
             .min_by(|a, b| offset(&a.1 .1).total_cmp(&offset(&b.1 .1)))
             .map(|(i, _)| i);
-        let held = |tails: &[(TailKey, TailRecord)], except: Option<usize>| -> usize {
+        let held = |tails: &[(TailKey, TailRecord, u64)], except: Option<usize>| -> usize {
             tails
                 .iter()
                 .enumerate()
@@ -184,6 +204,7 @@ impl BeamCache {
                 let room = self
                     .max_tail_events
                     .saturating_sub(held(&self.tails, Some(i)));
+                self.tails[i].2 = self.call;
                 let record = &mut self.tails[i].1;
                 let starts = record.sources();
                 let mut renew: Vec<usize> = (0..starts.len())
@@ -217,7 +238,7 @@ impl BeamCache {
             None => {
                 let room = self.max_tail_events.saturating_sub(held(&self.tails, None));
                 record_tail(scene, source, input, room, deadline)?.map(|record| {
-                    self.tails.push((key, record));
+                    self.tails.push((key, record, self.call));
                     self.tails.len() - 1
                 })
             }
@@ -240,8 +261,10 @@ impl BeamCache {
     /// [`AcousticScene::find_paths`] from the kept beams traced at
     /// `source`, or else the nearest within `reach` of it (re-mirrored for
     /// the move: [`Beams::proposals_moved`]), traced and kept first when
-    /// there are none; and, when kept beams answered, how far from
-    /// `source` they were traced. Call [`Self::retain`] first.
+    /// there are none or when the source asks again from where it last
+    /// reused them (it has stopped: traced there, it misses nothing); and,
+    /// when kept beams answered, how far from `source` they were traced.
+    /// Call [`Self::retain`] first.
     pub(crate) fn find_paths(
         &mut self,
         scene: &AcousticScene,
@@ -252,20 +275,37 @@ impl BeamCache {
         deadline: &Deadline,
     ) -> Result<(FoundPaths, Option<f64>)> {
         let key = bits(source);
-        let kept = match self.entries.iter().position(|(at, _)| bits(*at) == key) {
+        let kept = match self.entries.iter().position(|e| bits(e.at) == key) {
             Some(i) => Some(i),
-            None => self
-                .entries
-                .iter()
-                .enumerate()
-                .map(|(i, (at, _))| (i, at.distance(source)))
-                .filter(|&(_, d)| d <= reach)
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|(i, _)| i),
+            None => {
+                let nearest = self
+                    .entries
+                    .iter()
+                    .enumerate()
+                    .map(|(i, e)| (i, e.at.distance(source)))
+                    .filter(|&(_, d)| d <= reach)
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .map(|(i, _)| i);
+                match nearest {
+                    Some(i) if self.entries[i].reused_by == Some(key) => {
+                        // Stopped: the old beams go unless another source
+                        // of this call stands on them.
+                        if !self.sources.contains(&bits(self.entries[i].at)) {
+                            self.entries.remove(i);
+                        }
+                        None
+                    }
+                    Some(i) => {
+                        self.entries[i].reused_by = Some(key);
+                        Some(i)
+                    }
+                    None => None,
+                }
+            }
         };
         let (proposals, stats, offset) = match kept {
             Some(i) => {
-                let (at, beams) = &self.entries[i];
+                let Entry { at, beams, .. } = &self.entries[i];
                 let moved = source - *at;
                 let moves = if moved == DVec3::ZERO {
                     Vec::new()
@@ -282,7 +322,11 @@ impl BeamCache {
                 let (proposals, stats, beams) =
                     trace_keeping(&input, listeners, options, deadline, self.max_beams)?;
                 if let Some(beams) = beams {
-                    self.entries.push((source, beams));
+                    self.entries.push(Entry {
+                        at: source,
+                        reused_by: None,
+                        beams,
+                    });
                 }
                 (proposals, stats, None)
             }

@@ -385,13 +385,13 @@ impl Stream {
         }
         let metrics = self.state.metrics();
         for response in &computed.responses {
-            let answer = StreamFrame::ImpulseResponse(StreamAnswer {
+            let answer = StreamFrame::ImpulseResponse(Box::new(StreamAnswer {
                 seq: computed.seq,
                 revision: computed.revision,
                 compute_ms: computed.compute_ms,
                 objects: computed.objects.clone(),
                 pair: response.into(),
-            });
+            }));
             socket.send(text(&answer)).await?;
             let samples = simulation::samples_le(response);
             socket.send(Message::Binary(samples.into())).await?;

@@ -316,7 +316,12 @@ impl TailRecord {
         let (Some((mut events, a)), Some((more, b))) = (first?, second?) else {
             return Ok(false);
         };
-        if events.len() + more.len() > per_chunk {
+        // Within the chunk's share, as a record made here would be, and
+        // with the other chunks within `max_events` too (they were capped
+        // when the room was different).
+        let others = self.events() - self.chunks[chunk].len();
+        if events.len() + more.len() > per_chunk || others + events.len() + more.len() > max_events
+        {
             return Ok(false);
         }
         events.extend(more);
