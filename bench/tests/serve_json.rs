@@ -48,8 +48,15 @@ fn shoebox_quick_load_and_streams_have_no_errors() {
     }
     assert_eq!(rows[0]["clients"], 4);
     assert_eq!(rows[1]["options"]["max_order"], 4);
-    // Only the first listener update traces; a moving source always does.
+    // Only the first listener update traces; a moving source (5 cm an
+    // update) traces again once it is 0.25 m from its last trace, and
+    // reuses the frusta in between.
     let reused = |r: &serde_json::Value| r["beams_reused"].as_u64().unwrap();
     assert_eq!(reused(&rows[1]), rows[1]["requests"].as_u64().unwrap() - 1);
-    assert_eq!(reused(&rows[2]), 0);
+    let source_updates = rows[2]["requests"].as_u64().unwrap();
+    assert!(
+        reused(&rows[2]) > 0 && reused(&rows[2]) < source_updates,
+        "{}",
+        rows[2]
+    );
 }
