@@ -324,35 +324,38 @@ mod cached {
         assert!(!r[0].stats.beams_reused);
     }
 
+    /// A short tail of few rays, sources kept within 0.25 m.
+    fn tailed(rays: u32, max_length_s: f64) -> SimulationOptions {
+        SimulationOptions {
+            tail: Tail::Stochastic(TailOptions {
+                rays,
+                max_length_s,
+                ..Default::default()
+            }),
+            source_reuse_m: 0.25,
+            ..options(2)
+        }
+    }
+
     #[test]
     fn a_moving_source_renews_its_tail_a_chunk_at_a_time_and_ends_on_the_fresh_one() {
         let scene = AcousticScene::new(&shoebox(1, 0.2));
         let listener = [Vec3::new(7.3, 1.9, 1.7)];
-        let options = SimulationOptions {
-            tail: Tail::Stochastic(TailOptions {
-                rays: 256,
-                max_length_s: 0.3,
-                ..Default::default()
-            }),
-            ..options(2)
-        };
-        let moving = SimulationOptions {
-            source_reuse_m: 0.25,
-            ..options.clone()
-        };
+        let moving = tailed(256, 0.3);
         let mut cache = BeamCache::default();
-        let tail_stats = |r: &Response| r.stats.tail.clone().unwrap();
-        let at = |x: f32| [Vec3::new(x, 3.5, 1.2)];
-        let first =
-            simulate_cached(&scene, &at(2.0), &listener, &moving, &mut cache, None, None).unwrap();
-        assert!(!tail_stats(&first[0]).walk_reused);
+        let mut tail_at = |x: f32| {
+            let source = [Vec3::new(x, 3.5, 1.2)];
+            let r = simulate_cached(&scene, &source, &listener, &moving, &mut cache, None, None)
+                .unwrap()
+                .remove(0);
+            (r.stats.tail.clone().unwrap(), r)
+        };
+        assert!(!tail_at(2.0).0.walk_reused);
         // Three moves of 5 cm: each walks one chunk again from the new
         // position, the others are from at most 15 cm away.
         for k in 1..=3 {
             let x = 2.0 + 0.05 * k as f32;
-            let r = simulate_cached(&scene, &at(x), &listener, &moving, &mut cache, None, None)
-                .unwrap();
-            let t = tail_stats(&r[0]);
+            let (t, _) = tail_at(x);
             assert!(t.walk_reused, "move {k}");
             assert!(
                 (t.walk_offset_m - f64::from(x - 2.0)).abs() < 1e-6,
@@ -363,28 +366,26 @@ mod cached {
         // Standing still, the seven chunks walked elsewhere are renewed,
         // one a call; then the tail is the one a fresh walk from there
         // gives.
-        let still = at(2.15);
-        let fresh = simulate(&scene, &still, &listener, &options).unwrap();
+        let still = [Vec3::new(2.15, 3.5, 1.2)];
+        let fresh = simulate(&scene, &still, &listener, &moving)
+            .unwrap()
+            .remove(0);
         for call in 0..8 {
-            let r = simulate_cached(&scene, &still, &listener, &moving, &mut cache, None, None)
-                .unwrap();
-            let t = tail_stats(&r[0]);
+            let (t, r) = tail_at(2.15);
             assert!(t.walk_reused);
             if call < 6 {
                 assert!(t.walk_offset_m > 0.0, "call {call}");
-                assert_ne!(r[0].impulse_response, fresh[0].impulse_response);
+                assert_ne!(r.impulse_response, fresh.impulse_response);
             } else {
                 assert_eq!(t.walk_offset_m, 0.0, "call {call}");
-                assert_eq!(r[0].impulse_response, fresh[0].impulse_response);
-                assert_eq!(r[0].parameters, fresh[0].parameters);
+                assert_eq!(r.impulse_response, fresh.impulse_response);
+                assert_eq!(r.parameters, fresh.parameters);
             }
         }
         // Moving on steadily, no ray started more than the reach away.
         for k in 1..=12 {
             let x = 2.15 + 0.05 * k as f32;
-            let r = simulate_cached(&scene, &at(x), &listener, &moving, &mut cache, None, None)
-                .unwrap();
-            let t = tail_stats(&r[0]);
+            let (t, _) = tail_at(x);
             assert!(
                 t.walk_reused && t.walk_offset_m <= 0.25,
                 "{x}: {}",
@@ -392,9 +393,7 @@ mod cached {
             );
         }
         // A jump past the reach walks afresh.
-        let r =
-            simulate_cached(&scene, &at(4.0), &listener, &moving, &mut cache, None, None).unwrap();
-        assert!(!tail_stats(&r[0]).walk_reused);
+        assert!(!tail_at(4.0).0.walk_reused);
     }
 
     #[test]
@@ -402,15 +401,7 @@ mod cached {
         let scene = AcousticScene::new(&shoebox(1, 0.2));
         let sources = [Vec3::new(2.0, 3.5, 1.2), Vec3::new(2.1, 3.5, 1.2)];
         let listener = [Vec3::new(7.3, 1.9, 1.7)];
-        let options = SimulationOptions {
-            tail: Tail::Stochastic(TailOptions {
-                rays: 128,
-                max_length_s: 0.2,
-                ..Default::default()
-            }),
-            source_reuse_m: 0.25,
-            ..options(2)
-        };
+        let options = tailed(128, 0.2);
         let mut cache = BeamCache::default();
         let mut call = || {
             simulate_cached(

@@ -735,6 +735,27 @@ mod tests {
                 },
             ),
             (
+                "source_reuse_m",
+                SimulationOptions {
+                    source_reuse_m: -0.1,
+                    ..Default::default()
+                },
+            ),
+            (
+                "source_reuse_m",
+                SimulationOptions {
+                    source_reuse_m: f64::NAN,
+                    ..Default::default()
+                },
+            ),
+            (
+                "source_reuse_m",
+                SimulationOptions {
+                    source_reuse_m: MAX_SOURCE_REUSE_M * 2.0,
+                    ..Default::default()
+                },
+            ),
+            (
                 "1234",
                 SimulationOptions {
                     bands_hz: vec![1234.0],

@@ -121,19 +121,26 @@ mod tests {
         })
     }
 
+    /// The answers of `request` on `scene` by the selective method (asked
+    /// to succeed) and by full ray tracing.
+    async fn selective_and_full(
+        server: &TestServer,
+        scene: &str,
+        mut request: serde_json::Value,
+    ) -> (serde_json::Value, serde_json::Value) {
+        let uri = format!("/v1/scenes/{scene}/shadows");
+        let (status, _, selective) = server.send(post_json(&uri, &request.to_string())).await;
+        assert_eq!(status, StatusCode::OK, "{selective}");
+        request["method"] = json!("full");
+        let (_, _, full) = server.send(post_json(&uri, &request.to_string())).await;
+        (selective, full)
+    }
+
     #[tokio::test]
     async fn a_panel_casts_a_shadow_and_selective_equals_full() {
         let server = TestServer::new();
         server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
-        let (status, _, selective) = server
-            .send(post_json("/v1/scenes/box/shadows", &body(32).to_string()))
-            .await;
-        assert_eq!(status, StatusCode::OK, "{selective}");
-        let mut full = body(32);
-        full["method"] = json!("full");
-        let (_, _, full) = server
-            .send(post_json("/v1/scenes/box/shadows", &full.to_string()))
-            .await;
+        let (selective, full) = selective_and_full(&server, "box", body(32)).await;
         assert_eq!(selective["visibility"], full["visibility"]);
         let levels = selective["visibility"].as_array().unwrap();
         assert_eq!(levels.len(), 32 * 24);
@@ -149,14 +156,7 @@ mod tests {
         soft["light"] = json!({"position": [5, 3, 2.8], "shape": "rectangle", "u": [0.4, 0, 0], "v": [0, 0.3, 0]});
         soft["samples"] = json!(3);
         soft["seed"] = json!(5);
-        let (status, _, selective) = server
-            .send(post_json("/v1/scenes/box/shadows", &soft.to_string()))
-            .await;
-        assert_eq!(status, StatusCode::OK, "{selective}");
-        soft["method"] = json!("full");
-        let (_, _, full) = server
-            .send(post_json("/v1/scenes/box/shadows", &soft.to_string()))
-            .await;
+        let (selective, full) = selective_and_full(&server, "box", soft).await;
         assert_eq!(selective["visibility"], full["visibility"]);
         let levels: Vec<u8> = serde_json::from_value(full["visibility"].clone()).unwrap();
         assert!(levels.iter().any(|v| *v > 0 && *v < 255), "no penumbra");
@@ -186,14 +186,7 @@ mod tests {
             .await;
         let mut sun = body(32);
         sun["light"] = json!({"shape": "directional", "direction": [0.6, 0.2, -1]});
-        let (status, _, selective) = server
-            .send(post_json("/v1/scenes/yard/shadows", &sun.to_string()))
-            .await;
-        assert_eq!(status, StatusCode::OK, "{selective}");
-        sun["method"] = json!("full");
-        let (_, _, full) = server
-            .send(post_json("/v1/scenes/yard/shadows", &sun.to_string()))
-            .await;
+        let (selective, full) = selective_and_full(&server, "yard", sun).await;
         assert_eq!(selective["visibility"], full["visibility"]);
         let levels: Vec<u8> = serde_json::from_value(full["visibility"].clone()).unwrap();
         assert!(levels.contains(&0) && levels.contains(&255));
