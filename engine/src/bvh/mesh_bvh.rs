@@ -8,8 +8,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::ray_queries::{self, LeafTriangles};
-use super::wide::Bvh4;
-use super::{BuildOptions, Bvh};
+use super::traverse::ray8::avx_available;
+use super::wide::{Bvh4, Bvh8};
+use super::{BuildOptions, Bvh, Node};
 use crate::geometry::{trace_batch, Aabb, Ray, TriangleHit, TriangleMesh};
 use crate::{Error, Result};
 
@@ -62,13 +63,20 @@ pub struct MeshBvh {
     /// Triangle corners in leaf order, so a leaf's triangles are contiguous.
     /// 48 bytes each, aligned for SIMD loads.
     triangles: Vec<[Vec3A; 3]>,
+    /// The tree rays walk where the CPU has AVX, over the same slots.
+    bvh8: Option<Bvh8>,
     options: BuildOptions,
 }
 
 impl MeshBvh {
     /// Builds the hierarchy of `mesh`.
     pub fn build(mesh: &TriangleMesh, options: &BuildOptions) -> Self {
-        let (mut bvh, prim_ids) = wide_tree(mesh, options);
+        let (binary, prim_ids) = binary_tree(mesh, options);
+        let bvh8 = avx_available().then(|| Bvh8::from_binary(&binary));
+        let mut bvh = Bvh4::from_binary(&Bvh {
+            nodes: binary,
+            prim_ids: Vec::new(),
+        });
         let triangles: Vec<[Vec3A; 3]> = prim_ids
             .par_iter()
             .with_min_len(4096)
@@ -79,6 +87,7 @@ impl MeshBvh {
             bvh,
             prim_ids,
             triangles,
+            bvh8,
             options: options.clone(),
         }
     }
@@ -119,6 +128,7 @@ impl MeshBvh {
     /// Bytes held: nodes, build ratios, leaf order and triangle copies.
     pub fn memory_bytes(&self) -> usize {
         self.bvh.memory_bytes()
+            + self.bvh8.as_ref().map_or(0, Bvh8::memory_bytes)
             + self.prim_ids.capacity() * 4
             + self.triangles.capacity() * std::mem::size_of::<[Vec3A; 3]>()
     }
@@ -145,13 +155,17 @@ impl MeshBvh {
             .zip(ids.par_iter())
             .for_each(|(tri, &t)| *tri = mesh.corners(t as usize));
         let triangles = &self.triangles;
-        self.bvh.refit(|first, count| {
+        let leaf_bounds = |first: u32, count: u32| {
             triangles[first as usize..(first + count) as usize]
                 .iter()
                 .fold(Aabb::EMPTY, |b, [p, q, r]| {
                     b.union(Aabb::of_triangle(*p, *q, *r))
                 })
-        });
+        };
+        self.bvh.refit(leaf_bounds);
+        if let Some(bvh8) = &mut self.bvh8 {
+            bvh8.refit(leaf_bounds);
+        }
         let degradation = self.bvh.degradation(|f, c| leaf_area_sum(triangles, f, c));
         RefitReport { degradation }
     }
@@ -237,11 +251,26 @@ impl LeafTriangles for MeshBvh {
     fn prim_id(&self, slot: u32) -> u32 {
         self.prim_ids[slot as usize]
     }
+
+    #[inline(always)]
+    fn tree8(&self) -> Option<&Bvh8> {
+        self.bvh8.as_ref()
+    }
 }
 
 /// The wide tree of `mesh` (without build ratios) and its leaf order: leaf
 /// slot `i` holds triangle `prim_ids[i]`.
 pub(crate) fn wide_tree(mesh: &TriangleMesh, options: &BuildOptions) -> (Bvh4, Vec<u32>) {
+    let (nodes, prim_ids) = binary_tree(mesh, options);
+    let wide = Bvh4::from_binary(&Bvh {
+        nodes,
+        prim_ids: Vec::new(),
+    });
+    (wide, prim_ids)
+}
+
+/// The binary tree of `mesh` and its leaf order.
+fn binary_tree(mesh: &TriangleMesh, options: &BuildOptions) -> (Vec<Node>, Vec<u32>) {
     let boxes: Vec<Aabb> = (0..mesh.triangle_count())
         .into_par_iter()
         .with_min_len(4096)
@@ -251,11 +280,7 @@ pub(crate) fn wide_tree(mesh: &TriangleMesh, options: &BuildOptions) -> (Bvh4, V
         })
         .collect();
     let Bvh { nodes, prim_ids } = Bvh::build(&boxes, options);
-    let wide = Bvh4::from_binary(&Bvh {
-        nodes,
-        prim_ids: Vec::new(),
-    });
-    (wide, prim_ids)
+    (nodes, prim_ids)
 }
 
 fn leaf_area_sum(triangles: &[[Vec3A; 3]], first: u32, count: u32) -> f32 {
@@ -270,4 +295,80 @@ pub(crate) fn leaf_area_sum_of(corners: impl Fn(u32) -> [Vec3A; 3], first: u32, 
             Aabb::of_triangle(a, b, c).half_area()
         })
         .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::*;
+    use crate::geometry::shapes;
+
+    /// Random rays from inside and outside, rays at the cube's grid
+    /// vertices and along its faces and edges, and invalid ones.
+    fn rays(rng: &mut ChaCha8Rng) -> Vec<Ray> {
+        let mut rays: Vec<Ray> = (0..20_000)
+            .map(|_| {
+                let p = Vec3::new(rng.random(), rng.random(), rng.random()) * 6.0 - 3.0;
+                let d = Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0;
+                Ray::new(p, d)
+            })
+            .collect();
+        // The cube spans [-1, 1] in steps of 0.25: grid vertices and edges.
+        let grid: Vec<f32> = (0..=8).map(|i| -1.0 + 0.25 * i as f32).collect();
+        for &x in &grid {
+            for &y in &grid {
+                rays.push(Ray::new(Vec3::new(x, y, 3.0), -Vec3::Z));
+                rays.push(Ray::new(Vec3::new(x, -3.0, y), Vec3::Y));
+                // In the plane of a face, along a grid line.
+                rays.push(Ray::new(Vec3::new(x, 1.0, -3.0), Vec3::Z));
+                rays.push(Ray::new(Vec3::new(-3.0, x, y), Vec3::new(1.0, 0.0, 1e-7)));
+            }
+        }
+        rays.push(Ray::new(Vec3::NAN, Vec3::X));
+        rays.push(Ray::new(Vec3::ZERO, Vec3::ZERO));
+        rays.push(Ray::new(Vec3::splat(f32::INFINITY), -Vec3::X));
+        rays
+    }
+
+    fn assert_same_hits(eight: &MeshBvh, four: &MeshBvh, rays: &[Ray]) {
+        for ray in rays {
+            let (a, b) = (eight.closest_hit(ray), four.closest_hit(ray));
+            assert_eq!(a, b, "{ray:?}");
+            assert_eq!(eight.any_hit(ray), four.any_hit(ray), "{ray:?}");
+        }
+    }
+
+    /// Where the CPU has AVX, rays walk the 8-wide tree; they must meet
+    /// what the 4-wide walk meets (itself checked against brute force in
+    /// `tests/bvh_build.rs`), built and after a refit.
+    #[test]
+    fn the_eight_wide_walk_hits_what_the_four_wide_walk_hits() {
+        if !avx_available() {
+            eprintln!("skipped: this CPU has no AVX, so rays walk the 4-wide tree only");
+            return;
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let rays = rays(&mut rng);
+        for mesh in [shapes::cube(1.0, 8), shapes::icosphere(1.5, 3)] {
+            let mut eight = MeshBvh::build(&mesh, &BuildOptions::default());
+            assert!(eight.bvh8.is_some());
+            let mut four = eight.clone();
+            four.bvh8 = None;
+            assert_same_hits(&eight, &four, &rays);
+            let wobbled = TriangleMesh::new(
+                mesh.positions()
+                    .iter()
+                    .map(|&p| p * (1.0 + 0.4 * (4.0 * p.x).sin()) + Vec3::Z * p.y * p.y)
+                    .collect(),
+                mesh.triangles().to_vec(),
+            )
+            .unwrap();
+            eight.refit(&wobbled).unwrap();
+            four.refit(&wobbled).unwrap();
+            assert_same_hits(&eight, &four, &rays);
+        }
+    }
 }

@@ -5,7 +5,10 @@
 
 use glam::{Vec3, Vec3A};
 
+#[cfg(target_arch = "x86_64")]
+use super::traverse::ray8;
 use super::traverse::{self, Flow, RayTest, WideTree};
+use super::wide::Bvh8;
 use super::MeshHit;
 use crate::geometry::{Ray, TriangleHit, WatertightRay};
 
@@ -18,6 +21,11 @@ pub(crate) trait LeafTriangles {
     fn corners(&self, slot: u32) -> [Vec3A; 3];
     /// The mesh's index of the triangle in slot `slot`.
     fn prim_id(&self, slot: u32) -> u32;
+    /// The 8-wide tree over the same leaf slots, where there is one (built
+    /// only where the CPU has AVX).
+    fn tree8(&self) -> Option<&Bvh8> {
+        None
+    }
 }
 
 /// Traces `ray` and calls `on_hit(slot, hit, t_max)` for every triangle it
@@ -27,9 +35,43 @@ pub(crate) trait LeafTriangles {
 pub(crate) fn walk<M: LeafTriangles>(
     mesh: &M,
     ray: &Ray,
-    on_hit: impl FnMut(u32, TriangleHit, &mut f32) -> Flow,
+    mut on_hit: impl FnMut(u32, TriangleHit, &mut f32) -> Flow,
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(tree) = mesh.tree8() {
+        if !ray.is_valid() {
+            return;
+        }
+        let tri_ray = WatertightRay::new(ray);
+        // SAFETY: an 8-wide tree is built only where the CPU has AVX.
+        unsafe {
+            ray8::walk(tree, ray, |first, count, t_max| {
+                leaf_hits(mesh, &tri_ray, ray.t_min, first, count, t_max, &mut on_hit)
+            })
+        };
+        return;
+    }
     walk_pruned(mesh, ray, |_, _, _| true, on_hit);
+}
+
+/// Hands `on_hit` the hits of `tri_ray` on leaf slots `first..first + count`.
+#[inline(always)]
+fn leaf_hits<M: LeafTriangles>(
+    mesh: &M,
+    tri_ray: &WatertightRay,
+    t_min: f32,
+    first: u32,
+    count: u32,
+    t_max: &mut f32,
+    on_hit: &mut impl FnMut(u32, TriangleHit, &mut f32) -> Flow,
+) -> Flow {
+    for slot in first..first + count {
+        let [a, b, c] = mesh.corners(slot);
+        if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
+            on_hit(slot, h, t_max)?;
+        }
+    }
+    Flow::Continue(())
 }
 
 /// [`walk`], asking `open(node, entry, t_max)` before entering each inner
@@ -51,15 +93,7 @@ pub(crate) fn walk_pruned<M: LeafTriangles>(
         &RayTest::new(ray),
         ray.t_max,
         open,
-        |(first, count), t_max| {
-            for slot in first..first + count {
-                let [a, b, c] = mesh.corners(slot);
-                if let Some(h) = tri_ray.intersect(a, b, c, t_min, *t_max) {
-                    on_hit(slot, h, t_max)?;
-                }
-            }
-            Flow::Continue(())
-        },
+        |(first, count), t_max| leaf_hits(mesh, &tri_ray, t_min, first, count, t_max, &mut on_hit),
     );
 }
 
@@ -91,7 +125,9 @@ pub(crate) const BOUND_SLACK: f32 = 1.0 / 65536.0;
 /// cases of [`BOUND_SLACK`]).
 #[inline]
 pub(crate) fn closest_hit<M: LeafTriangles>(mesh: &M, ray: &Ray) -> Option<MeshHit> {
-    closest_hit_pruned(mesh, ray, |_, _, _| true)
+    let mut nearest = Nearest::new(mesh);
+    walk(mesh, ray, |slot, h, t_max| nearest.offer(slot, h, t_max));
+    nearest.hit()
 }
 
 /// [`closest_hit`] among the triangles of the subtrees `open` lets the walk
@@ -102,17 +138,43 @@ pub(crate) fn closest_hit_pruned<M: LeafTriangles>(
     ray: &Ray,
     open: impl FnMut(usize, f32, &mut f32) -> bool,
 ) -> Option<MeshHit> {
-    let mut best: Option<(u32, TriangleHit)> = None;
+    let mut nearest = Nearest::new(mesh);
     walk_pruned(mesh, ray, open, |slot, h, t_max| {
-        let better = best
+        nearest.offer(slot, h, t_max)
+    });
+    nearest.hit()
+}
+
+/// The nearest of the hits offered; of hits at the same distance, the one
+/// on the triangle of lowest mesh index.
+struct Nearest<'a, M> {
+    mesh: &'a M,
+    best: Option<(u32, TriangleHit)>,
+}
+
+impl<'a, M: LeafTriangles> Nearest<'a, M> {
+    fn new(mesh: &'a M) -> Self {
+        Self { mesh, best: None }
+    }
+
+    /// Takes `h`, on slot `slot`, if it is nearer; the walk then looks no
+    /// farther than it (with [`BOUND_SLACK`]).
+    #[inline(always)]
+    fn offer(&mut self, slot: u32, h: TriangleHit, t_max: &mut f32) -> Flow {
+        let mesh = self.mesh;
+        let better = self
+            .best
             .is_none_or(|(s, b)| h.t < b.t || (h.t == b.t && mesh.prim_id(slot) < mesh.prim_id(s)));
         if better {
-            best = Some((slot, h));
+            self.best = Some((slot, h));
             *t_max = h.t + h.t.abs() * BOUND_SLACK;
         }
         Flow::Continue(())
-    });
-    best.map(|(slot, h)| mesh_hit(mesh, slot, h))
+    }
+
+    fn hit(self) -> Option<MeshHit> {
+        self.best.map(|(slot, h)| mesh_hit(self.mesh, slot, h))
+    }
 }
 
 /// Whether anything lies on the ray within its range.

@@ -24,6 +24,7 @@ mod frustum;
 mod overlap;
 pub mod pair;
 mod ray;
+pub(crate) mod ray8;
 mod wide;
 mod window;
 

@@ -14,7 +14,8 @@ use crate::bvh::wide::Boxes4;
 use crate::geometry::{Aabb, Ray};
 
 /// `1 + 2 * gamma(3)` with `gamma(n) = n * u / (1 - n * u)`, `u = 2^-24`.
-const EXIT_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub(super) const EXIT_SCALE: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// Per-ray constants of the slab test; the key is the entry distance and
 /// the bound the ray's current `t_max`.
@@ -23,8 +24,8 @@ const EXIT_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f3
 /// four-box test is six subtractions and multiplies on whole registers.
 #[derive(Clone, Copy, Debug)]
 pub struct RayTest {
-    origin: [Vec4; 3],
-    inv_dir: [Vec4; 3],
+    pub(super) origin: [Vec4; 3],
+    pub(super) inv_dir: [Vec4; 3],
     /// Per axis, whether the direction is negative (then the near plane is
     /// the box maximum); a negative zero counts as negative.
     negative: [bool; 3],
@@ -32,9 +33,9 @@ pub struct RayTest {
     /// [`Boxes4::planes`]: chosen once per ray, so the four-box test has
     /// no branch on the direction (a mispredicted one in the first nodes
     /// of every incoherent ray).
-    near: [usize; 3],
-    far: [usize; 3],
-    t_min: f32,
+    pub(super) near: [usize; 3],
+    pub(super) far: [usize; 3],
+    pub(super) t_min: f32,
 }
 
 impl RayTest {

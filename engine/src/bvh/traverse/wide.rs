@@ -115,25 +115,92 @@ pub fn walk<W: WideTree, T: NodeTest>(
 pub fn walk_pruned<W: WideTree, T: NodeTest>(
     tree: &W,
     test: &T,
-    mut bound: f32,
-    mut open: impl FnMut(usize, f32, &mut f32) -> bool,
+    bound: f32,
+    open: impl FnMut(usize, f32, &mut f32) -> bool,
     mut leaf: impl FnMut(W::Leaf, &mut f32) -> Flow,
 ) {
-    if tree.node_count() == 0 {
+    walk_nodes(&Four { tree, test }, bound, open, |node, slot, bound| {
+        leaf(tree.leaf(node, slot), bound)
+    });
+}
+
+/// A wide tree and a node test, as the walk's core sees them, whatever
+/// the width: four slots a node ([`WideTree`]) or eight
+/// ([`Bvh8`](crate::bvh::wide::Bvh8)).
+pub(crate) trait WideWalk {
+    /// Slots per node, as a power of two: a leaf's stack entry holds its
+    /// node and slot in the bits below [`LEAF_REF`].
+    const SLOT_BITS: u32;
+    /// Whether kept slots are visited in key order (see [`NodeTest::ORDERED`]).
+    const ORDERED: bool;
+    type Keys: Copy + std::ops::Index<usize, Output = f32>;
+
+    fn node_count(&self) -> usize;
+    /// The keys of node `node`'s slot boxes and a mask of those kept under
+    /// `bound` (empty slots may be among them: see [`walk_nodes`]).
+    fn test(&self, node: usize, bound: f32) -> (Self::Keys, u32);
+    fn slot(&self, node: usize, slot: usize) -> Slot;
+    fn prefetch(&self, node: usize);
+}
+
+/// A 4-wide tree walked with `test`.
+struct Four<'a, W, T> {
+    tree: &'a W,
+    test: &'a T,
+}
+
+impl<W: WideTree, T: NodeTest> WideWalk for Four<'_, W, T> {
+    const SLOT_BITS: u32 = 2;
+    const ORDERED: bool = T::ORDERED;
+    type Keys = [f32; 4];
+
+    #[inline(always)]
+    fn node_count(&self) -> usize {
+        self.tree.node_count()
+    }
+
+    #[inline(always)]
+    fn test(&self, node: usize, bound: f32) -> ([f32; 4], u32) {
+        let (keys, mask) = self.test.test4(&self.tree.boxes(node), bound);
+        // As an array: glam indexes a `Vec4` through a jump table, an
+        // indirect branch per kept slot that rarely predicts (a tenth of a
+        // tail ray's time in a hall).
+        (keys.to_array(), mask)
+    }
+
+    #[inline(always)]
+    fn slot(&self, node: usize, slot: usize) -> Slot {
+        self.tree.slot(node, slot)
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, node: usize) {
+        self.tree.prefetch(node)
+    }
+}
+
+/// The walk's core: visits the leaf slots `walk` keeps, nearer keys first,
+/// as `leaf(node, slot, bound)` (see [`walk_pruned`]).
+#[inline(always)]
+pub(crate) fn walk_nodes<W: WideWalk>(
+    walk: &W,
+    mut bound: f32,
+    mut open: impl FnMut(usize, f32, &mut f32) -> bool,
+    mut leaf: impl FnMut(usize, usize, &mut f32) -> Flow,
+) {
+    if walk.node_count() == 0 {
         return;
     }
-    // Each level pushes at most three more entries than it pops.
-    // Uninitialised: zeroing it would cost more than a shallow walk.
-    let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); 3 * STACK_SIZE];
+    // Each level pushes at most one entry fewer than a node's slots more
+    // than it pops: seven for the widest tree. Uninitialised: zeroing it
+    // would cost more than a shallow walk.
+    let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); 7 * STACK_SIZE];
     let mut top = 0usize;
     let mut node = 0usize;
+    let slot_mask = (1u32 << W::SLOT_BITS) - 1;
     loop {
         let base = top;
-        let (keys, mut mask) = test.test4(&tree.boxes(node), bound);
-        // Indexed as an array: glam indexes a `Vec4` through a jump table,
-        // an indirect branch per kept slot that rarely predicts (a tenth of
-        // a tail ray's time in a hall).
-        let keys = keys.to_array();
+        let (keys, mut mask) = walk.test(node, bound);
         // The nearest kept child is handled next, the others pushed
         // farthest first. Most nodes keep at most one child: no sort then.
         let mut next = None;
@@ -143,10 +210,10 @@ pub fn walk_pruned<W: WideTree, T: NodeTest>(
             // Empty slots whatever the test says: a test with NaN in its
             // planes (a frustum from a source at 3e38 m) kept their empty
             // boxes, and the slot's marker read as a leaf out of bounds.
-            let entry = match tree.slot(node, s) {
+            let entry = match walk.slot(node, s) {
                 Slot::Empty => continue,
                 Slot::Inner(child) => child,
-                Slot::Leaf => LEAF_REF | (node as u32) << 2 | s as u32,
+                Slot::Leaf => LEAF_REF | (node as u32) << W::SLOT_BITS | s as u32,
             };
             let entry = (entry, keys[s]);
             let Some(held) = next else {
@@ -155,17 +222,17 @@ pub fn walk_pruned<W: WideTree, T: NodeTest>(
             };
             // Of the two, the nearer stays held; the other joins the
             // entries pushed for this node, kept sorted farthest first.
-            let (near, far) = if !T::ORDERED || held.1 <= entry.1 {
+            let (near, far) = if !W::ORDERED || held.1 <= entry.1 {
                 (held, entry)
             } else {
                 (entry, held)
             };
             next = Some(near);
             if far.0 & LEAF_REF == 0 {
-                tree.prefetch(far.0 as usize);
+                walk.prefetch(far.0 as usize);
             }
             let mut j = top;
-            if T::ORDERED {
+            if W::ORDERED {
                 // SAFETY: entries below `top` were written.
                 while j > base && unsafe { stack[j - 1].assume_init() }.1 < far.1 {
                     stack[j] = stack[j - 1];
@@ -199,8 +266,8 @@ pub fn walk_pruned<W: WideTree, T: NodeTest>(
                 node = index as usize;
                 break;
             }
-            let (n, s) = ((index & !LEAF_REF) >> 2, index & 3);
-            if leaf(tree.leaf(n as usize, s as usize), &mut bound).is_break() {
+            let (n, s) = ((index & !LEAF_REF) >> W::SLOT_BITS, index & slot_mask);
+            if leaf(n as usize, s as usize, &mut bound).is_break() {
                 return;
             }
         }

@@ -1,12 +1,16 @@
 //! The 4-wide BVH that meshes are traced with, collapsed from a binary
-//! build (see [`super::build`]).
+//! build (see [`super::build`]), and the 8-wide one rays walk where the
+//! CPU has AVX ([`Bvh8`]).
 //!
 //! A binary tree tests one box per step; a 4-wide tree tests four with one
 //! SIMD instruction per slab and has about a third of the nodes, so
 //! incoherent rays take far fewer dependent loads. The binary tree stays the
 //! build intermediate and the top level of scenes, where nodes are few.
 
+mod eight;
 pub(crate) mod refit;
+
+pub use eight::{Bvh8, Node8};
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -217,9 +221,30 @@ impl Bvh4 {
 /// Emits the wide node for binary inner node `b` and, recursively, its
 /// inner children; returns its index.
 fn collapse(bin: &[Node], b: usize, out: &mut Vec<Node4>) -> u32 {
+    let kids = wide_children(bin, b, 4);
+    let index = out.len();
+    out.push(EMPTY_NODE);
+    let mut node = EMPTY_NODE;
+    for (slot, &k) in kids.iter().enumerate() {
+        node.set_slot_aabb(slot, bin[k].aabb());
+        if bin[k].is_leaf() {
+            node.child[slot] = bin[k].first();
+            node.count[slot] = bin[k].count();
+        } else {
+            node.child[slot] = collapse(bin, k, out);
+        }
+    }
+    out[index] = node;
+    index as u32
+}
+
+/// The binary nodes that become the slots of the wide node made for binary
+/// inner node `b`: its two children, the largest inner one opened until
+/// there are `width`, which keeps the SAH order of the splits.
+fn wide_children(bin: &[Node], b: usize, width: usize) -> Vec<usize> {
     let first = bin[b].first() as usize;
     let mut kids: Vec<usize> = vec![first, first + 1];
-    while kids.len() < 4 {
+    while kids.len() < width {
         let widest = kids
             .iter()
             .enumerate()
@@ -235,18 +260,5 @@ fn collapse(bin: &[Node], b: usize, out: &mut Vec<Node4>) -> u32 {
         kids[i] = f;
         kids.push(f + 1);
     }
-    let index = out.len();
-    out.push(EMPTY_NODE);
-    let mut node = EMPTY_NODE;
-    for (slot, &k) in kids.iter().enumerate() {
-        node.set_slot_aabb(slot, bin[k].aabb());
-        if bin[k].is_leaf() {
-            node.child[slot] = bin[k].first();
-            node.count[slot] = bin[k].count();
-        } else {
-            node.child[slot] = collapse(bin, k, out);
-        }
-    }
-    out[index] = node;
-    index as u32
+    kids
 }
