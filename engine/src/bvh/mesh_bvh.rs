@@ -72,7 +72,9 @@ impl MeshBvh {
     /// Builds the hierarchy of `mesh`.
     pub fn build(mesh: &TriangleMesh, options: &BuildOptions) -> Self {
         let (binary, prim_ids) = binary_tree(mesh, options);
-        let bvh8 = avx_available().then(|| Bvh8::from_binary(&binary));
+        let bvh8 = avx_available()
+            .then(|| Bvh8::from_binary(&binary))
+            .filter(Bvh8::addressable);
         let mut bvh = Bvh4::from_binary(&Bvh {
             nodes: binary,
             prim_ids: Vec::new(),
@@ -92,7 +94,8 @@ impl MeshBvh {
         }
     }
 
-    /// The 4-wide tree the mesh is traced with.
+    /// The 4-wide tree every query walks (rays walk the 8-wide one where
+    /// the CPU has AVX).
     pub fn wide(&self) -> &Bvh4 {
         &self.bvh
     }
@@ -119,8 +122,7 @@ impl MeshBvh {
         self.bvh.bounds()
     }
 
-    /// SAH cost of the traced (4-wide) tree, unit costs per node and per
-    /// triangle.
+    /// SAH cost of the 4-wide tree, unit costs per node and per triangle.
     pub fn sah_cost(&self) -> f32 {
         self.bvh.sah_cost()
     }
@@ -333,11 +335,20 @@ mod tests {
         rays
     }
 
+    /// Closest, any and all hits agree, over the whole ray and over a
+    /// range that starts and ends inside the scene.
     fn assert_same_hits(eight: &MeshBvh, four: &MeshBvh, rays: &[Ray]) {
-        for ray in rays {
-            let (a, b) = (eight.closest_hit(ray), four.closest_hit(ray));
+        let all = |bvh: &MeshBvh, ray: &Ray| {
+            let mut hits = Vec::new();
+            bvh.for_each_hit(ray, |triangle, t| hits.push((triangle, t.to_bits())));
+            hits.sort_unstable();
+            hits
+        };
+        for ray in rays.iter().flat_map(|r| [*r, r.with_range(0.5, 3.5)]) {
+            let (a, b) = (eight.closest_hit(&ray), four.closest_hit(&ray));
             assert_eq!(a, b, "{ray:?}");
-            assert_eq!(eight.any_hit(ray), four.any_hit(ray), "{ray:?}");
+            assert_eq!(eight.any_hit(&ray), four.any_hit(&ray), "{ray:?}");
+            assert_eq!(all(eight, &ray), all(four, &ray), "{ray:?}");
         }
     }
 
@@ -352,7 +363,12 @@ mod tests {
         }
         let mut rng = ChaCha8Rng::seed_from_u64(8);
         let rays = rays(&mut rng);
-        for mesh in [shapes::cube(1.0, 8), shapes::icosphere(1.5, 3)] {
+        let cube = shapes::cube(1.0, 8);
+        // One and two triangles: the root is a leaf, or holds two.
+        let few = |n: usize| {
+            TriangleMesh::new(cube.positions().to_vec(), cube.triangles()[..n].to_vec()).unwrap()
+        };
+        for mesh in [few(1), few(2), cube.clone(), shapes::icosphere(1.5, 3)] {
             let mut eight = MeshBvh::build(&mesh, &BuildOptions::default());
             assert!(eight.bvh8.is_some());
             let mut four = eight.clone();

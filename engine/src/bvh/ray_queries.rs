@@ -1,7 +1,12 @@
-//! Ray queries on a 4-wide tree and the triangles of its leaves, whatever
+//! Ray queries on a wide tree and the triangles of its leaves, whatever
 //! their layout: [`MeshBvh`](super::MeshBvh) (corner copies) and
 //! [`CompactBvh`](super::CompactBvh) (shared vertices) both answer through
-//! these, so both give the same hits.
+//! these, so both give the same hits. Where a layout has an 8-wide tree
+//! over the same leaf slots ([`Bvh8`], with AVX), unpruned rays walk it.
+//! Its walk meets the same triangles, and the nearest hit is chosen by
+//! distance then mesh index, so the answer does not depend on the walk's
+//! order, except in the grazing cases of [`BOUND_SLACK`], where a machine
+//! without AVX may answer differently.
 
 use glam::{Vec3, Vec3A};
 

@@ -103,6 +103,13 @@ impl Bvh8 {
         Self { nodes }
     }
 
+    /// Whether every leaf can be named on the walk's stack: node and slot
+    /// in the 31 bits below its leaf marker, so fewer than 2^28 nodes
+    /// (about 270 million triangles); past that, rays walk the 4-wide tree.
+    pub(crate) fn addressable(&self) -> bool {
+        self.nodes.len() < 1 << 28
+    }
+
     pub fn nodes(&self) -> &[Node8] {
         &self.nodes
     }
