@@ -32,6 +32,7 @@ mod propagation;
 mod provenance;
 mod rays;
 mod report;
+mod reuse;
 mod reverb;
 mod serve;
 mod shadows;
@@ -79,6 +80,10 @@ enum Command {
     /// ISO 3382 parameters per band beside the exact image sources (box
     /// rooms), Sabine and Eyring, and the time of each part.
     Reverb(reverb::Args),
+    /// A source moving in small steps, as a stream moves it: updates that
+    /// reuse its frusta within a distance beside fresh traces, time and
+    /// recall.
+    Reuse(reuse::Args),
     /// Hard shadows of a moving light per frame: the plain shadow map,
     /// selective and full ray tracing side by side, wrong pixels counted.
     Shadows(shadows::Args),
@@ -98,6 +103,7 @@ fn main() -> ExitCode {
         Command::Ccd(args) => ccd::run(args),
         Command::Collide(args) => collide::run(args),
         Command::Reverb(args) => reverb::run(args),
+        Command::Reuse(args) => reuse::run(args),
         Command::Shadows(args) => shadows::run(args),
         Command::Lod(args) => lod::run(args),
     };
