@@ -87,18 +87,7 @@ impl Bvh8 {
     /// binary node and keeps opening the largest inner child until it holds
     /// eight (as [`Bvh4::from_binary`](super::Bvh4::from_binary) does four).
     pub fn from_binary(bin: &[Node]) -> Self {
-        let mut nodes = Vec::with_capacity(bin.len() / 7 + 1);
-        if let Some(root) = bin.first() {
-            if root.is_leaf() {
-                let mut n = EMPTY_NODE8;
-                n.set_slot_aabb(0, root.aabb());
-                n.child[0] = root.first();
-                n.count[0] = root.count();
-                nodes.push(n);
-            } else {
-                collapse(bin, 0, &mut nodes);
-            }
-        }
+        let mut nodes = super::collapse_tree(bin);
         nodes.shrink_to_fit();
         Self { nodes }
     }
@@ -135,22 +124,13 @@ impl Bvh8 {
     }
 }
 
-/// Emits the node for binary inner node `b` and, recursively, its inner
-/// children; returns its index.
-fn collapse(bin: &[Node], b: usize, out: &mut Vec<Node8>) -> u32 {
-    let kids = super::wide_children(bin, b, 8);
-    let index = out.len();
-    out.push(EMPTY_NODE8);
-    let mut node = EMPTY_NODE8;
-    for (slot, &k) in kids.iter().enumerate() {
-        node.set_slot_aabb(slot, bin[k].aabb());
-        if bin[k].is_leaf() {
-            node.child[slot] = bin[k].first();
-            node.count[slot] = bin[k].count();
-        } else {
-            node.child[slot] = collapse(bin, k, out);
-        }
+impl super::WideNode for Node8 {
+    const WIDTH: usize = 8;
+    const EMPTY: Self = EMPTY_NODE8;
+
+    fn set_slot(&mut self, slot: usize, aabb: Aabb, child: u32, count: u32) {
+        self.set_slot_aabb(slot, aabb);
+        self.child[slot] = child;
+        self.count[slot] = count;
     }
-    out[index] = node;
-    index as u32
 }

@@ -150,18 +150,7 @@ impl Bvh4 {
     /// binary node and keeps opening the largest inner child until it holds
     /// four, which keeps the SAH order of the splits.
     pub fn from_binary(bin: &Bvh) -> Self {
-        let mut nodes = Vec::with_capacity(bin.nodes.len() / 3 + 1);
-        if let Some(root) = bin.nodes.first() {
-            if root.is_leaf() {
-                let mut n = EMPTY_NODE;
-                n.set_slot_aabb(0, root.aabb());
-                n.child[0] = root.first();
-                n.count[0] = root.count();
-                nodes.push(n);
-            } else {
-                collapse(&bin.nodes, 0, &mut nodes);
-            }
-        }
+        let nodes = collapse_tree(&bin.nodes);
         let mut wide = Self {
             nodes,
             build_ratios: Vec::new(),
@@ -218,21 +207,56 @@ impl Bvh4 {
     }
 }
 
+/// A wide node as the collapse fills it.
+trait WideNode: Copy {
+    const WIDTH: usize;
+    const EMPTY: Self;
+    /// Sets slot `slot`: its box, and its first leaf slot and count (a
+    /// leaf) or its child node and 0 (inner).
+    fn set_slot(&mut self, slot: usize, aabb: Aabb, child: u32, count: u32);
+}
+
+impl WideNode for Node4 {
+    const WIDTH: usize = 4;
+    const EMPTY: Self = EMPTY_NODE;
+
+    fn set_slot(&mut self, slot: usize, aabb: Aabb, child: u32, count: u32) {
+        self.set_slot_aabb(slot, aabb);
+        self.child[slot] = child;
+        self.count[slot] = count;
+    }
+}
+
+/// The wide nodes of binary tree `bin`, the root first and every child
+/// after its parent.
+fn collapse_tree<N: WideNode>(bin: &[Node]) -> Vec<N> {
+    let mut nodes = Vec::with_capacity(bin.len() / (N::WIDTH - 1) + 1);
+    if let Some(root) = bin.first() {
+        if root.is_leaf() {
+            let mut n = N::EMPTY;
+            n.set_slot(0, root.aabb(), root.first(), root.count());
+            nodes.push(n);
+        } else {
+            collapse(bin, 0, &mut nodes);
+        }
+    }
+    nodes
+}
+
 /// Emits the wide node for binary inner node `b` and, recursively, its
 /// inner children; returns its index.
-fn collapse(bin: &[Node], b: usize, out: &mut Vec<Node4>) -> u32 {
-    let kids = wide_children(bin, b, 4);
+fn collapse<N: WideNode>(bin: &[Node], b: usize, out: &mut Vec<N>) -> u32 {
+    let kids = wide_children(bin, b, N::WIDTH);
     let index = out.len();
-    out.push(EMPTY_NODE);
-    let mut node = EMPTY_NODE;
+    out.push(N::EMPTY);
+    let mut node = N::EMPTY;
     for (slot, &k) in kids.iter().enumerate() {
-        node.set_slot_aabb(slot, bin[k].aabb());
-        if bin[k].is_leaf() {
-            node.child[slot] = bin[k].first();
-            node.count[slot] = bin[k].count();
+        let (child, count) = if bin[k].is_leaf() {
+            (bin[k].first(), bin[k].count())
         } else {
-            node.child[slot] = collapse(bin, k, out);
-        }
+            (collapse(bin, k, out), 0)
+        };
+        node.set_slot(slot, bin[k].aabb(), child, count);
     }
     out[index] = node;
     index as u32
