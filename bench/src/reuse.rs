@@ -62,10 +62,11 @@ struct Row {
     /// Updates that reused frusta instead of tracing.
     reused: usize,
     /// Median and mean wall time of an update (the mean counts the
-    /// updates that traced), and the median of a fresh trace there.
+    /// updates that traced), and of a fresh trace at each position.
     update_ms: f64,
     update_mean_ms: f64,
     fresh_ms: f64,
+    fresh_mean_ms: f64,
     /// Paths of the fresh traces, and those the updates found.
     fresh_paths: usize,
     found: usize,
@@ -86,6 +87,16 @@ struct Saved<'a> {
 }
 
 pub fn run(args: Args) -> Result<(), String> {
+    if args.updates == 0 {
+        return Err("--updates must be at least 1".into());
+    }
+    if !(args.radius > 0.0 && args.radius.is_finite() && args.step.is_finite() && args.step > 0.0) {
+        return Err("--radius and --step must be positive and finite".into());
+    }
+    let max = frusta_engine::acoustics::MAX_SOURCE_REUSE_M;
+    if let Some(bad) = args.reuse.iter().find(|r| !(0.0..=max).contains(*r)) {
+        return Err(format!("--reuse {bad}: must lie in 0..={max} m"));
+    }
     let mut provenance = provenance::start(rayon::current_num_threads());
     let names: Vec<String> = if args.scenes.is_empty() {
         vec!["hall-10k".into(), "l-room".into()]
@@ -181,6 +192,7 @@ fn run_scene(name: &'static str, reuse: &[f64], args: &Args) -> Result<Vec<Row>,
             update_ms: 0.0,
             update_mean_ms: 0.0,
             fresh_ms: median(fresh.iter().map(|f| f.1).collect()),
+            fresh_mean_ms: mean(fresh.iter().map(|f| f.1)),
             fresh_paths: 0,
             found: 0,
             recall: 0.0,
@@ -202,12 +214,17 @@ fn run_scene(name: &'static str, reuse: &[f64], args: &Args) -> Result<Vec<Row>,
                 .filter(|p| !reference.iter().any(|f| same(p, f)))
                 .count();
         }
-        row.update_mean_ms = times.iter().sum::<f64>() / times.len().max(1) as f64;
+        row.update_mean_ms = mean(times.iter().copied());
         row.update_ms = median(times);
         row.recall = row.found as f64 / row.fresh_paths.max(1) as f64;
         rows.push(row);
     }
     Ok(rows)
+}
+
+fn mean(v: impl ExactSizeIterator<Item = f64>) -> f64 {
+    let n = v.len().max(1) as f64;
+    v.sum::<f64>() / n
 }
 
 /// The same path: the same reflection points in the same order, within
@@ -230,8 +247,9 @@ fn table(rows: &[Row], provenance: &Provenance, args: &Args) -> String {
     let mut out = provenance.header();
     out += &format!(
         "\na source moving {} m per update along a circle of radius {} m, {} updates; order {}, N = {}, no tail or diffraction; \
-         update ms = median and mean wall time of an update (reusing frusta within reuse m, else tracing); speed-up = fresh over mean; fresh ms = median of a fresh \
-         trace at each position (same cells and sampling), the recall's reference; others = validated paths the updates found \
+         update ms = median and mean wall time of an update (reusing frusta within reuse m, else tracing); fresh ms = median and mean \
+         of a fresh trace at each position (same cells and sampling, no cache), the recall's reference, all run before the updates; \
+         speed-up = fresh mean over update mean; recall rounded down; others = validated paths the updates found \
          that the fresh traces missed\n\n",
         args.step, args.radius, args.updates, args.order, args.sampling
     );
@@ -244,6 +262,7 @@ fn table(rows: &[Row], provenance: &Provenance, args: &Args) -> String {
         "update ms",
         "mean ms",
         "fresh ms",
+        "fresh mean",
         "speed-up",
         "fresh paths",
         "found",
@@ -262,10 +281,11 @@ fn table(rows: &[Row], provenance: &Provenance, args: &Args) -> String {
             format!("{:.2}", r.update_ms),
             format!("{:.2}", r.update_mean_ms),
             format!("{:.2}", r.fresh_ms),
-            format!("{:.1}x", r.fresh_ms / r.update_mean_ms),
+            format!("{:.2}", r.fresh_mean_ms),
+            format!("{:.1}x", r.fresh_mean_ms / r.update_mean_ms),
             r.fresh_paths.to_string(),
             r.found.to_string(),
-            format!("{:.3}", r.recall),
+            format!("{:.3}", (r.recall * 1000.0).floor() / 1000.0),
             r.others.to_string(),
         ]);
     }
