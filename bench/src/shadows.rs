@@ -1,5 +1,6 @@
-//! `frusta-bench shadows`: hard shadows of a moving point light and soft
-//! shadows of a moving area light per frame, the plain shadow map,
+//! `frusta-bench shadows`: hard shadows of a moving point light and of
+//! the sun (a directional light, turning), and soft shadows of a moving
+//! area light per frame, the plain shadow map,
 //! selective ray tracing and full ray tracing side by side, interleaved
 //! frame by frame; the light map is rebuilt every frame. Then the receiver
 //! form: which of 10,000 seats see a source on the stage, selective
@@ -17,8 +18,8 @@ use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::generate::BoxRoom;
 use frusta_engine::scene::{Material, Scene, SceneObject};
 use frusta_engine::shadows::{
-    AreaLight, AreaShape, Camera, Light, Method, PointLight, PointVisibility, ShadowImage,
-    ShadowOptions, ShadowScene,
+    AreaLight, AreaShape, Camera, DirectionalLight, Light, Method, PointLight, PointVisibility,
+    ShadowImage, ShadowOptions, ShadowScene,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -46,7 +47,8 @@ pub struct Args {
     /// Soft shadows: samples per side of the area light (16 samples at 4).
     #[arg(long, default_value_t = 4)]
     samples: u32,
-    /// Which shadows to run.
+    /// Which shadows to run: hard (a point light and the sun), soft (a
+    /// panel), or both.
     #[arg(long, value_enum, default_value_t = Kinds::Both)]
     shadows: Kinds,
     /// Print the runs as JSON instead of a table.
@@ -64,11 +66,35 @@ enum Kinds {
     Both,
 }
 
+/// The light of a run.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Lamp {
+    /// A point circling the scene: hard shadows, a perspective map.
+    Point,
+    /// A directional light at 45 degrees of elevation turning round the
+    /// vertical: hard shadows, an orthographic map.
+    Sun,
+    /// A square panel facing down, circling: soft shadows.
+    Panel,
+}
+
+impl Lamp {
+    fn name(self) -> &'static str {
+        match self {
+            Lamp::Point => "point",
+            Lamp::Sun => "sun",
+            Lamp::Panel => "panel",
+        }
+    }
+}
+
 #[derive(Clone, Debug, Serialize)]
 struct Run {
     scene: String,
     triangles: usize,
     shadows: &'static str,
+    /// `point`, `sun` (directional) or `panel` (area).
+    light: &'static str,
     width: u32,
     height: u32,
     shadow_map_size: u32,
@@ -254,23 +280,28 @@ fn run_scene(
     s: &Setup,
     scene: &ShadowScene,
     name: &str,
-    soft: bool,
+    lamp: Lamp,
     args: &Args,
 ) -> Result<Run, String> {
+    let soft = lamp == Lamp::Panel;
     let camera = Camera {
         fov_y_deg: 70.0,
         ..Camera::looking_at(s.eye, s.target, args.size, args.size)
     };
     // Soft: a square panel facing down.
-    let shadow = |method, centre: Vec3| {
-        let light = if soft {
-            let shape = AreaShape::Rectangle {
-                u: Vec3::X * s.light_half,
-                v: Vec3::Y * s.light_half,
-            };
-            Light::Area(AreaLight { centre, shape })
-        } else {
-            Light::Point(PointLight { position: centre })
+    let shadow = |method, centre: Vec3, turn: f32| {
+        let light = match lamp {
+            Lamp::Panel => {
+                let shape = AreaShape::Rectangle {
+                    u: Vec3::X * s.light_half,
+                    v: Vec3::Y * s.light_half,
+                };
+                Light::Area(AreaLight { centre, shape })
+            }
+            Lamp::Point => Light::Point(PointLight { position: centre }),
+            Lamp::Sun => Light::Directional(DirectionalLight {
+                direction: Vec3::new(turn.cos(), turn.sin(), -1.0),
+            }),
         };
         scene
             .shadows(&s.world, &camera, &light, &options(method, args))
@@ -288,7 +319,7 @@ fn run_scene(
         for k in 0..3 {
             let m = (frame + k) % 3;
             let method = [Method::Full, Method::Selective, Method::ShadowMap][m];
-            images[m] = Some(shadow(method, light)?);
+            images[m] = Some(shadow(method, light, a)?);
         }
         let [full, selective, plain] = images.map(|i| i.expect("every method ran"));
         for (t, img) in times.iter_mut().zip([&full, &selective, &plain]) {
@@ -313,6 +344,7 @@ fn run_scene(
         scene: name.into(),
         triangles: s.triangles,
         shadows: if soft { "soft" } else { "hard" },
+        light: lamp.name(),
         width: args.size,
         height: args.size,
         shadow_map_size: args.map,
@@ -341,10 +373,10 @@ pub fn run(args: Args) -> Result<(), String> {
         args.scenes.clone()
     };
     let (mut runs, mut seats) = (Vec::new(), Vec::new());
-    let kinds: &[bool] = match args.shadows {
-        Kinds::Hard => &[false],
-        Kinds::Soft => &[true],
-        Kinds::Both => &[false, true],
+    let lamps: &[Lamp] = match args.shadows {
+        Kinds::Hard => &[Lamp::Point, Lamp::Sun],
+        Kinds::Soft => &[Lamp::Panel],
+        Kinds::Both => &[Lamp::Point, Lamp::Sun, Lamp::Panel],
     };
     for name in &names {
         if !SCENES.contains(&name.as_str()) {
@@ -352,9 +384,10 @@ pub fn run(args: Args) -> Result<(), String> {
         }
         let s = setup(name)?;
         let scene = ShadowScene::new(&s.world);
-        for &soft in kinds {
-            runs.push(run_scene(&s, &scene, name, soft, &args)?);
-            if let Some(stage) = s.stage {
+        for &lamp in lamps {
+            runs.push(run_scene(&s, &scene, name, lamp, &args)?);
+            if let (Some(stage), false) = (s.stage, lamp == Lamp::Sun) {
+                let soft = lamp == Lamp::Panel;
                 seats.push(run_seats(&s, &scene, name, stage, soft, &args)?);
             }
         }
@@ -449,18 +482,21 @@ fn run_seats(
 fn table(runs: &Runs, provenance: &Provenance) -> String {
     let mut out = provenance.header();
     out +=
-        "\nhard shadows of a point light, soft shadows of a square panel facing down (samples per\n";
-    out += "pixel in the table), circling the scene; per frame, medians; each method's\n";
+        "\nhard shadows of a point light circling the scene and of the sun (45 degrees up, turning\n";
+    out +=
+        "round the vertical), soft shadows of a square panel facing down, circling (samples per\n";
+    out += "pixel in the table); per frame, medians; each method's\n";
     out +=
         "time excludes the G-buffer every method shares and the scene's shadow data, made once\n";
     out += "(their own columns)\n\n";
-    out += "scene        triangles shadows samples   image  map   full ms  selective ms  (map+classify+trace)     shadow map ms  gbuffer ms  scene ms  full/sel   PIP  wrong  map wrong\n";
+    out += "scene        triangles shadows light samples   image  map   full ms  selective ms  (map+classify+trace)     shadow map ms  gbuffer ms  scene ms  full/sel   PIP  wrong  map wrong\n";
     for r in &runs.runs {
         out += &format!(
-            "{:<12} {:>9} {:>7} {:>7} {:>5}^2 {:>4} {:>9.1} {:>13.1}  ({:>5.1}+{:>4.1}+{:>5.1}) {:>16.1} {:>11.1} {:>9.1} {:>9.2} {:>5.3} {:>6} {:>10}\n",
+            "{:<12} {:>9} {:>7} {:>5} {:>7} {:>5}^2 {:>4} {:>9.1} {:>13.1}  ({:>5.1}+{:>4.1}+{:>5.1}) {:>16.1} {:>11.1} {:>9.1} {:>9.2} {:>5.3} {:>6} {:>10}\n",
             r.scene,
             r.triangles,
             r.shadows,
+            r.light,
             r.samples,
             r.width,
             r.shadow_map_size,

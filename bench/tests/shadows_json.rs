@@ -1,6 +1,7 @@
 //! `frusta-bench shadows --json --save DIR` runs end to end on the
-//! bunny in a room, prints the documented fields, finds selective equal to
-//! full ray tracing on every pixel, and saves the run with its provenance.
+//! bunny in a room (a point light, the sun, a panel), prints the
+//! documented fields, finds selective equal to full ray tracing on every
+//! pixel, and saves the run with its provenance.
 
 mod common;
 
@@ -28,10 +29,12 @@ fn shadows_json_has_the_documented_fields() {
     assert_eq!(doc["runs"], saved["runs"]);
     assert_eq!(saved["commit"].as_str().unwrap().len(), 40);
     let runs = doc["runs"].as_array().unwrap();
-    assert_eq!(runs.len(), 2);
-    for (r, shadows) in runs.iter().zip(["hard", "soft"]) {
+    assert_eq!(runs.len(), 3);
+    let kinds = [("hard", "point"), ("hard", "sun"), ("soft", "panel")];
+    for (r, (shadows, light)) in runs.iter().zip(kinds) {
         assert_eq!(r["scene"], "bunny-room");
         assert_eq!(r["shadows"], shadows);
+        assert_eq!(r["light"], light);
         assert_eq!(
             (r["width"].as_u64(), r["height"].as_u64()),
             (Some(96), Some(96))
@@ -43,7 +46,7 @@ fn shadows_json_has_the_documented_fields() {
         assert!(pip > 0.0 && pip < 1.0, "{r}");
         assert_eq!(r["wrong_pixels"], 0, "{r}");
     }
-    assert_eq!(runs[1]["samples"], 16);
+    assert_eq!(runs[2]["samples"], 16);
     // The bunny's room has no stage: no seats.
     assert_eq!(doc["seats"].as_array().unwrap().len(), 0);
 }
