@@ -10,7 +10,7 @@ use std::arch::x86_64::{
 
 use super::ray::EXIT_SCALE;
 use super::wide::{walk_nodes, WideWalk};
-use super::{Flow, RayTest, Slot};
+use super::{Flow, RayTest, Slot, STACK_SIZE};
 use crate::bvh::wide::Bvh8;
 use crate::geometry::Ray;
 
@@ -107,7 +107,8 @@ pub(crate) unsafe fn walk(
         far: test.far,
         t_min: _mm256_set1_ps(test.t_min),
     };
-    walk_nodes(
+    // Each level pushes at most seven more entries than it pops.
+    walk_nodes::<_, { 7 * STACK_SIZE }>(
         &walk,
         ray.t_max,
         |_, _, _| true,

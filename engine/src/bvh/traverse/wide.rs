@@ -119,7 +119,8 @@ pub fn walk_pruned<W: WideTree, T: NodeTest>(
     open: impl FnMut(usize, f32, &mut f32) -> bool,
     mut leaf: impl FnMut(W::Leaf, &mut f32) -> Flow,
 ) {
-    walk_nodes(&Four { tree, test }, bound, open, |node, slot, bound| {
+    // Each level pushes at most three more entries than it pops.
+    walk_nodes::<_, { 3 * STACK_SIZE }>(&Four { tree, test }, bound, open, |node, slot, bound| {
         leaf(tree.leaf(node, slot), bound)
     });
 }
@@ -180,9 +181,12 @@ impl<W: WideTree, T: NodeTest> WideWalk for Four<'_, W, T> {
 }
 
 /// The walk's core: visits the leaf slots `walk` keeps, nearer keys first,
-/// as `leaf(node, slot, bound)` (see [`walk_pruned`]).
+/// as `leaf(node, slot, bound)` (see [`walk_pruned`]). `STACK` entries
+/// hold the deferred slots: a node's slots less one per level of
+/// [`STACK_SIZE`], sized per width so that a 4-wide walk keeps its frame
+/// small.
 #[inline(always)]
-pub(crate) fn walk_nodes<W: WideWalk>(
+pub(crate) fn walk_nodes<W: WideWalk, const STACK: usize>(
     walk: &W,
     mut bound: f32,
     mut open: impl FnMut(usize, f32, &mut f32) -> bool,
@@ -191,10 +195,8 @@ pub(crate) fn walk_nodes<W: WideWalk>(
     if walk.node_count() == 0 {
         return;
     }
-    // Each level pushes at most one entry fewer than a node's slots more
-    // than it pops: seven for the widest tree. Uninitialised: zeroing it
-    // would cost more than a shallow walk.
-    let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); 7 * STACK_SIZE];
+    // Uninitialised: zeroing it would cost more than a shallow walk.
+    let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); STACK];
     let mut top = 0usize;
     let mut node = 0usize;
     let slot_mask = (1u32 << W::SLOT_BITS) - 1;
