@@ -223,25 +223,30 @@ impl OctaveFilterBank {
     }
 }
 
-/// The shortest length of at least `n` (and 16) of the form `m · 2^k` with
-/// `m` in [`LADDER`]: the transforms run about as fast per point at these
-/// lengths as at powers of two, the next power of two is up to twice as
-/// long (a 3 s response at 48 kHz: 163,840 points instead of 262,144), and
-/// five lengths an octave keep responses of nearby lengths on one plan.
+/// The shortest even length of at least `n` (and 16) of the form `m · 2^k`
+/// with `m` in [`LADDER`]: the transforms run about as fast per point at
+/// these lengths as at powers of two, the next power of two is up to twice
+/// as long (a 2 s response at 48 kHz: 102,400 points instead of 131,072),
+/// and seven lengths an octave keep responses of nearby lengths on one
+/// plan.
 fn transform_len(n: usize) -> usize {
     // Even lengths only: the last bin is then Nyquist's (see `finish`).
-    let mut scale = 2;
+    let mut scale = 1;
     loop {
-        if let Some(len) = LADDER.iter().map(|m| m * scale).find(|&len| len >= n) {
+        if let Some(len) = LADDER
+            .iter()
+            .map(|m| m * scale)
+            .find(|&len| len >= n && len % 2 == 0)
+        {
             return len;
         }
         scale *= 2;
     }
 }
 
-/// The steps of [`transform_len`] within an octave: 2-3-5-smooth, at most
-/// 25 % apart.
-const LADDER: [usize; 5] = [8, 9, 10, 12, 15];
+/// The steps of [`transform_len`] within an octave: every 2-3-5-smooth
+/// number in [16, 32), at most 12.5 % apart.
+const LADDER: [usize; 7] = [16, 18, 20, 24, 25, 27, 30];
 
 /// The filter tail [`TAIL_S`] in samples at `sample_rate`.
 pub(crate) fn tail_samples(sample_rate: u32) -> usize {
@@ -282,12 +287,16 @@ mod tests {
 
     #[test]
     fn transform_lengths_are_the_next_rungs_of_the_ladder() {
-        let rungs: Vec<usize> = (0..20).flat_map(|k| LADDER.map(|m| m << (k + 1))).collect();
+        let rungs: Vec<usize> = (0..20)
+            .flat_map(|k| LADDER.map(|m| m << k))
+            .filter(|r| r % 2 == 0)
+            .collect();
         for n in (0..5000).chain([153_600, 1_000_001]) {
             let want = rungs.iter().copied().filter(|&r| r >= n).min().unwrap();
             assert_eq!(transform_len(n), want, "n = {n}");
         }
         assert_eq!(transform_len(153_600), 163_840);
+        assert_eq!(transform_len(100_000), 102_400);
         assert_eq!(transform_len(0), 16);
         assert!((0..5000).all(|n| transform_len(n) % 2 == 0));
     }
