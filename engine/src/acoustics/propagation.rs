@@ -15,7 +15,7 @@ use super::signal::{
     self, AirConditions, Arrival, EnergyHistogram, ImpulseResponse, ImpulseResponseOptions,
     RoomParameters,
 };
-use super::tail::{trace_tail, Tail, TailInput, TailOptions, TailStats};
+use super::tail::{trace_tail, Tail, TailInput, TailOptions, TailStats, TracedTail};
 use super::{AcousticScene, BeamCache, CellAssignment, TraceOptions};
 use crate::deadline::{Cancel, Deadline};
 use crate::scene::{Bands, BAND_COUNT, OCTAVE_BANDS_HZ};
@@ -378,8 +378,18 @@ fn simulate_with(
             ),
         };
         let trace_ms = trace_start.elapsed().as_secs_f64() * 1e3;
-        let tail = match &tail_options {
-            Some(tail) => {
+        // The diffracted paths beside the tail: one listener's search is
+        // one thread's work, which the tail's rays leave room for.
+        let search = DiffractionSearch {
+            order: options.diffraction_order,
+            speed_of_sound: speed,
+            active_bands: trace_options.active_bands,
+        };
+        let (tail, diffraction) = rayon::join(
+            || -> Result<Option<TracedTail>> {
+                let Some(tail) = &tail_options else {
+                    return Ok(None);
+                };
                 let input = TailInput {
                     options: tail,
                     exact_order: trace_options.max_order,
@@ -387,7 +397,7 @@ fn simulate_with(
                     speed_of_sound: speed,
                     air: options.air.as_ref(),
                 };
-                Some(match cache.as_deref_mut() {
+                Ok(Some(match cache.as_deref_mut() {
                     Some(cache) => cache.tail(
                         scene,
                         source,
@@ -397,29 +407,27 @@ fn simulate_with(
                         &deadline,
                     )?,
                     None => trace_tail(scene, source, &listener_points, &input, &deadline)?,
-                })
-            }
-            None => None,
-        };
+                }))
+            },
+            || -> Result<(Vec<Vec<DiffractedPath>>, f64)> {
+                use rayon::prelude::*;
+                let diffraction_start = Instant::now();
+                let diffracted = listener_points
+                    .par_iter()
+                    .map(|&l| {
+                        diffracted_paths_until(scene.edge_scene(), source, l, &search, &deadline)
+                    })
+                    .collect::<Result<_>>()?;
+                Ok((diffracted, diffraction_start.elapsed().as_secs_f64() * 1e3))
+            },
+        );
+        let tail = tail?;
+        let (diffracted, diffraction_ms) = diffraction?;
         let surface_share = if tail.is_some() {
             SurfaceShare::Specular
         } else {
             SurfaceShare::Reflected
         };
-        let diffraction_start = Instant::now();
-        let search = DiffractionSearch {
-            order: options.diffraction_order,
-            speed_of_sound: speed,
-            active_bands: trace_options.active_bands,
-        };
-        let diffracted: Vec<Vec<DiffractedPath>> = {
-            use rayon::prelude::*;
-            listener_points
-                .par_iter()
-                .map(|&l| diffracted_paths_until(scene.edge_scene(), source, l, &search, &deadline))
-                .collect::<Result<_>>()?
-        };
-        let diffraction_ms = diffraction_start.elapsed().as_secs_f64() * 1e3;
         for (l, paths) in found.paths.iter().enumerate() {
             deadline.check()?;
             let air = options.air.as_ref();
