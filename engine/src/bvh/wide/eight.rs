@@ -107,20 +107,9 @@ impl Bvh8 {
         self.nodes.capacity() * std::mem::size_of::<Node8>()
     }
 
-    /// Recomputes every box: leaf slots from `leaf_bounds(first, count)`,
-    /// inner slots as the union of their child's slots, in one reverse
-    /// sweep (children come after their parent).
-    pub(crate) fn refit(&mut self, leaf_bounds: impl Fn(u32, u32) -> Aabb) {
-        for i in (0..self.nodes.len()).rev() {
-            for s in 0..8 {
-                let b = match self.nodes[i].slot(s) {
-                    Slot::Empty => continue,
-                    Slot::Leaf => leaf_bounds(self.nodes[i].child[s], self.nodes[i].count[s]),
-                    Slot::Inner(child) => self.nodes[child as usize].aabb(),
-                };
-                self.nodes[i].set_slot_aabb(s, b);
-            }
-        }
+    /// Recomputes every box (see [`super::refit::refit_boxes`]).
+    pub(crate) fn refit(&mut self, leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync) {
+        super::refit::refit_boxes(&mut self.nodes, leaf_bounds);
     }
 }
 
@@ -132,5 +121,24 @@ impl super::WideNode for Node8 {
         self.set_slot_aabb(slot, aabb);
         self.child[slot] = child;
         self.count[slot] = count;
+    }
+
+    fn set_slot_aabb(&mut self, slot: usize, aabb: Aabb) {
+        Node8::set_slot_aabb(self, slot, aabb)
+    }
+
+    fn aabb(&self) -> Aabb {
+        Node8::aabb(self)
+    }
+
+    fn leaf(&self, slot: usize) -> Option<(u32, u32)> {
+        (self.slot(slot) == Slot::Leaf).then(|| (self.child[slot], self.count[slot]))
+    }
+
+    fn inner(&self, slot: usize) -> Option<usize> {
+        match self.slot(slot) {
+            Slot::Inner(child) => Some(child as usize),
+            _ => None,
+        }
     }
 }

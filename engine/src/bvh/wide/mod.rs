@@ -207,13 +207,20 @@ impl Bvh4 {
     }
 }
 
-/// A wide node as the collapse fills it.
-trait WideNode: Copy {
+/// A wide node as the collapse fills it and the refit updates it.
+trait WideNode: Copy + Send {
     const WIDTH: usize;
     const EMPTY: Self;
     /// Sets slot `slot`: its box, and its first leaf slot and count (a
     /// leaf) or its child node and 0 (inner).
     fn set_slot(&mut self, slot: usize, aabb: Aabb, child: u32, count: u32);
+    fn set_slot_aabb(&mut self, slot: usize, aabb: Aabb);
+    /// The union of the slots' boxes.
+    fn aabb(&self) -> Aabb;
+    /// A leaf slot's first leaf slot and count.
+    fn leaf(&self, slot: usize) -> Option<(u32, u32)>;
+    /// An inner slot's child node.
+    fn inner(&self, slot: usize) -> Option<usize>;
 }
 
 impl WideNode for Node4 {
@@ -224,6 +231,23 @@ impl WideNode for Node4 {
         self.set_slot_aabb(slot, aabb);
         self.child[slot] = child;
         self.count[slot] = count;
+    }
+
+    fn set_slot_aabb(&mut self, slot: usize, aabb: Aabb) {
+        self.boxes.set_slot_aabb(slot, aabb)
+    }
+
+    fn aabb(&self) -> Aabb {
+        Node4::aabb(self)
+    }
+
+    fn leaf(&self, slot: usize) -> Option<(u32, u32)> {
+        self.is_leaf_slot(slot)
+            .then(|| (self.child[slot], self.count[slot]))
+    }
+
+    fn inner(&self, slot: usize) -> Option<usize> {
+        self.is_inner_slot(slot).then(|| self.child[slot] as usize)
     }
 }
 

@@ -9,11 +9,41 @@
 
 use rayon::prelude::*;
 
-use super::{Bvh4, Node4};
+use super::{Bvh4, Node4, WideNode};
 use crate::geometry::Aabb;
 
 /// Below this many nodes the leaf pass runs on one thread.
 const PARALLEL_NODES: usize = 4 * 1024;
+
+/// Recomputes every box of a wide tree: leaf slots from
+/// `leaf_bounds(first, count)` (on rayon: the triangles are most of the
+/// work), then inner slots as the union of their child's slots, in one
+/// reverse sweep (children come after their parent).
+pub(super) fn refit_boxes<N: WideNode>(
+    nodes: &mut [N],
+    leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync,
+) {
+    let leaves = |n: &mut N| {
+        for s in 0..N::WIDTH {
+            if let Some((first, count)) = n.leaf(s) {
+                n.set_slot_aabb(s, leaf_bounds(first, count));
+            }
+        }
+    };
+    if nodes.len() >= PARALLEL_NODES {
+        nodes.par_iter_mut().with_min_len(256).for_each(leaves);
+    } else {
+        nodes.iter_mut().for_each(leaves);
+    }
+    for i in (0..nodes.len()).rev() {
+        for s in 0..N::WIDTH {
+            if let Some(child) = nodes[i].inner(s) {
+                let b = nodes[child].aabb();
+                nodes[i].set_slot_aabb(s, b);
+            }
+        }
+    }
+}
 
 /// Ratio of a box area to the sum of the areas it bounds; 1 when both are 0.
 #[inline]
@@ -33,26 +63,7 @@ impl Bvh4 {
     /// (children come after their parent).
     pub(crate) fn refit(&mut self, leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync) {
         self.pose = super::next_id();
-        let leaves = |n: &mut Node4| {
-            for s in 0..4 {
-                if n.is_leaf_slot(s) {
-                    n.set_slot_aabb(s, leaf_bounds(n.child[s], n.count[s]));
-                }
-            }
-        };
-        if self.nodes.len() >= PARALLEL_NODES {
-            self.nodes.par_iter_mut().with_min_len(256).for_each(leaves);
-        } else {
-            self.nodes.iter_mut().for_each(leaves);
-        }
-        for i in (0..self.nodes.len()).rev() {
-            for s in 0..4 {
-                if self.nodes[i].is_inner_slot(s) {
-                    let b = self.nodes[self.nodes[i].child[s] as usize].aabb();
-                    self.nodes[i].set_slot_aabb(s, b);
-                }
-            }
-        }
+        refit_boxes(&mut self.nodes, leaf_bounds);
     }
 
     /// Area ratios of a node and of its leaf slots (see [`node_ratios`]).
