@@ -232,7 +232,9 @@ impl Spot {
     fn of(point: Vec3, map: &LightMap) -> Self {
         let last = map.size - 1;
         Self(map.locate(point.as_dvec3()).map(|(face, x, y, z)| {
-            let texel = |c: f64| (c.floor().max(0.0) as u32).min(last);
+            // Truncation is the floor from 0 up, and the cast takes NaN
+            // to 0: no call to `floor`, which the x86-64 baseline lacks.
+            let texel = |c: f64| (c.max(0.0) as u32).min(last);
             (face, texel(x), texel(y), z)
         }))
     }
