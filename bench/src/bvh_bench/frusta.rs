@@ -24,7 +24,7 @@ impl<const COMPACT: bool> Accel for Frusta<COMPACT> {
     const NOTE: &'static str = if COMPACT {
         "the frusta build re-encoded: 8-bit child boxes in 64-byte nodes, 16-bit corners into welded vertices; refit: vertices and leaf boxes on rayon, inner boxes in one serial sweep, nodes re-encoded on rayon"
     } else {
-        "binned SAH on rayon, collapsed to 4-wide and (rays, on CPUs with AVX) 8-wide; refit: 4-wide leaves on rayon, inner nodes and the 8-wide tree in one serial sweep each"
+        "binned SAH on rayon, collapsed to 4-wide and (rays, on CPUs with AVX) 8-wide; refit: leaves of both trees on rayon, inner nodes in one serial sweep each"
     };
     type Prepared = TriangleMesh;
     type Ray = Ray;

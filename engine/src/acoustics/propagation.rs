@@ -244,7 +244,8 @@ pub struct SimulationStats {
     /// Time to find the paths: tracing (unless reused), proposing and
     /// validating.
     pub trace_ms: f64,
-    /// Time to find the diffracted paths of every listener of the source.
+    /// Time to find the diffracted paths of every listener of the source
+    /// (wall time, beside the tail's: the two overlap).
     pub diffraction_ms: f64,
     /// The late reverberation's rays and time (shared by the source's
     /// listeners), when there is a tail.
@@ -378,8 +379,8 @@ fn simulate_with(
             ),
         };
         let trace_ms = trace_start.elapsed().as_secs_f64() * 1e3;
-        // The diffracted paths beside the tail: one listener's search is
-        // one thread's work, which the tail's rays leave room for.
+        // The diffracted paths beside the tail: one listener's first-order
+        // search is one thread's work, which the tail's rays leave room for.
         let search = DiffractionSearch {
             order: options.diffraction_order,
             speed_of_sound: speed,

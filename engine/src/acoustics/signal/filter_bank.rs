@@ -245,7 +245,8 @@ fn transform_len(n: usize) -> usize {
 }
 
 /// The steps of [`transform_len`] within an octave: every 2-3-5-smooth
-/// number in [16, 32), at most 12.5 % apart.
+/// number in [16, 32), at most 20 % apart (25 % below 32, where the odd
+/// ones are skipped).
 const LADDER: [usize; 7] = [16, 18, 20, 24, 25, 27, 30];
 
 /// The filter tail [`TAIL_S`] in samples at `sample_rate`.
