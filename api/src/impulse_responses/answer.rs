@@ -111,7 +111,8 @@ pub struct StatsOut {
     #[serde(default)]
     pub beams_offset_m: f64,
     pub trace_ms: f64,
-    /// Time to find the diffracted paths of the source's listeners.
+    /// Time to find the diffracted paths of the source's listeners (wall
+    /// time, beside the tail's: the two overlap).
     pub diffraction_ms: f64,
     /// The late reverberation's rays and time; null without a tail.
     pub tail: Option<TailStatsOut>,
