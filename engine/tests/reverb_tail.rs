@@ -55,6 +55,12 @@ fn respond(scene: &AcousticScene, max_order: u32, tail: Tail) -> Response {
 /// of length `L` lies at `m L + (x if m is even else L − x)` after `|m|`
 /// reflections.
 fn image_sources(absorption: f64, speed: f64, until_s: f64) -> Vec<(f64, f64, u32)> {
+    image_sources_by_axis([absorption; 3], speed, until_s)
+}
+
+/// [`image_sources`] with absorption `absorption[axis]` on the two walls
+/// across each axis (floor and ceiling across z).
+fn image_sources_by_axis(absorption: [f64; 3], speed: f64, until_s: f64) -> Vec<(f64, f64, u32)> {
     let reach = until_s * speed;
     let mut out = Vec::new();
     let axis = |m: i64, axis: usize| {
@@ -80,7 +86,12 @@ fn image_sources(absorption: f64, speed: f64, until_s: f64) -> Vec<(f64, f64, u3
                     continue;
                 }
                 let order = (mx.abs() + my.abs() + mz.abs()) as u32;
-                let energy = (1.0 - absorption).powi(order as i32) / d2;
+                let energy = [mx, my, mz]
+                    .iter()
+                    .zip(absorption)
+                    .map(|(m, a)| (1.0 - a).powi(m.abs() as i32))
+                    .product::<f64>()
+                    / d2;
                 out.push((d2.sqrt() / speed, energy, order));
             }
         }
@@ -178,6 +189,59 @@ fn specular_shoebox_decay_matches_converged_image_sources() {
     let reported = &response.parameters[0].parameters;
     within("reported EDT", reported.edt_s.unwrap(), edt, 0.05);
     within("reported T20", reported.t20_s.unwrap(), t20, 0.05);
+}
+
+/// A room whose floor and ceiling absorb most and whose walls little:
+/// its late decay rides on the few near-horizontal rays between the walls
+/// (flutter), the hardest case for a handful of seeds. Every seed must
+/// land within 5 % (one just-noticeable difference) of the image sources,
+/// not only their mean (both cut at the tail's 2 s). With the starting
+/// lattice turned at random, which leaves a varying few rays near the
+/// horizontal, and the sphere held within the listener's clearance, seed
+/// 0 missed T20 by 5.2 %; now the worst is 3.3 %.
+#[test]
+fn every_seed_of_a_fluttering_shoebox_matches_its_image_sources() {
+    let (walls, floor_and_ceiling) = (0.05, 0.6);
+    let mut scene = Scene::single_object(
+        "room",
+        BoxRoom::new(Vec3::ZERO, Vec3::from_array(ROOM.map(|v| v as f32)))
+            .generate()
+            .unwrap(),
+        Material::uniform("walls", walls as f32).unwrap(),
+    )
+    .unwrap();
+    scene
+        .materials
+        .push(Material::uniform("floor and ceiling", floor_and_ceiling as f32).unwrap());
+    let object = &mut scene.objects[0];
+    for t in 0..object.mesh.triangle_count() {
+        if object.mesh.face_normal(t).z.abs() > 0.5 {
+            object.materials[t] = 1;
+        }
+    }
+    let scene = AcousticScene::new(&scene);
+    let length = 2.0;
+    let mut reference = None;
+    for seed in 0..4 {
+        let tail = Tail::Stochastic(TailOptions {
+            seed,
+            max_length_s: length,
+            ..TailOptions::default()
+        });
+        let response = respond(&scene, 3, tail);
+        let (edt, t20) = *reference.get_or_insert_with(|| {
+            let speed = response.speed_of_sound_m_s;
+            let absorption = [walls, walls, floor_and_ceiling];
+            let images: Vec<(f64, f64)> = image_sources_by_axis(absorption, speed, length)
+                .into_iter()
+                .map(|(t, e, _)| (t, e))
+                .collect();
+            decay_times(&images)
+        });
+        let (got_edt, got_t20) = decay_times(&echogram(&response));
+        within(&format!("seed {seed} EDT"), got_edt, edt, 0.05);
+        within(&format!("seed {seed} T20"), got_t20, t20, 0.05);
+    }
 }
 
 #[test]

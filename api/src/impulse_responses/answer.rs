@@ -131,7 +131,7 @@ pub struct TailStatsOut {
     pub shadow_rays: u64,
     /// Radius of the sphere around each listener that counted rays, m: the
     /// smallest, unless the request fixed it (it grows with the path's
-    /// length up to the listener's clearance).
+    /// length up to half a mean free path, counted where the listener sees).
     pub receiver_radius_m: f64,
     /// The room volume the sphere and the tail's echo density were sized by, m³.
     pub volume_m3: f64,

@@ -252,7 +252,7 @@ fn tail_schema() -> RefOr<Schema> {
                     Type::Null,
                 ]))
                 .description(Some(
-                    "Radius of the sphere around each listener that counts rays, m, fixed; null sizes the smallest from the room and grows it with the path's length up to the listener's clearance from every surface",
+                    "Radius of the sphere around each listener that counts rays, m, fixed; null sizes the smallest from the room and grows it with the path's length up to half a mean free path, counting only what the listener sees",
                 ))
                 .exclusive_minimum(Some(0.0)),
         )

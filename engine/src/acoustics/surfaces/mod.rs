@@ -15,7 +15,6 @@ use rayon::prelude::*;
 
 use crate::bvh::traverse::{Flow, OverlapTest};
 use crate::bvh::SceneBvh;
-use crate::collision::closest_on_triangle;
 use crate::geometry::Aabb;
 use crate::scene::MaterialId;
 use groups::GroupTable;
@@ -289,28 +288,6 @@ impl Surfaces {
         best
     }
 
-    /// The distance from `p` to the nearest surface (triangles with area),
-    /// or `reach` if none comes closer: how large a ball around `p` stays
-    /// clear of every surface. Searched in growing cubes: a surface found
-    /// within a cube's half-side is the nearest of all, so most points stop
-    /// at a small cube however large the reach.
-    pub fn clearance(&self, bvh: &SceneBvh, p: DVec3, reach: f64) -> f64 {
-        let mut half = reach / 64.0;
-        loop {
-            half = (4.0 * half).min(reach);
-            let mut nearest = f64::INFINITY;
-            self.slots_near(bvh, p, half, |_, slot, _| {
-                if self.slot_group[slot] != NO_GROUP {
-                    let corners = self.corners[slot].map(|c| DVec3::from(Vec3::from(c)));
-                    nearest = nearest.min(p.distance(closest_on_triangle(p, corners)));
-                }
-            });
-            if nearest <= half || half >= reach {
-                return nearest.min(reach);
-            }
-        }
-    }
-
     /// The faces of other triangles (those `own` rejects, by flat slot)
     /// meeting the line through `p` along unit `axis` at `p`, as their
     /// directions away from the line (both ways for a face the line runs
@@ -461,41 +438,6 @@ mod tests {
         let mut offsets: Vec<f64> = s.groups().map(|(_, g)| g.plane.offset).collect();
         offsets.sort_by(f64::total_cmp);
         assert_eq!(offsets, vec![0.0, 0.0, 0.0, 3.0, 6.0, 10.0]);
-    }
-
-    /// Clearances in a subdivided box against the distance to its walls in
-    /// closed form, inside and out, capped at the reach.
-    #[test]
-    fn clearance_is_the_distance_to_the_nearest_wall() {
-        let mut room = BoxRoom::new(Vec3::ZERO, Vec3::new(10.0, 6.0, 3.0));
-        room.subdivisions = 3;
-        let scene = Scene::single_object(
-            "room",
-            room.generate().unwrap(),
-            Material::uniform("w", 0.1).unwrap(),
-        )
-        .unwrap();
-        let bvh = SceneBvh::build(&scene, &BuildOptions::default());
-        let s = Surfaces::new(&bvh);
-        let (lo, hi) = (DVec3::ZERO, DVec3::new(10.0, 6.0, 3.0));
-        let walls = |p: DVec3| {
-            let outside = p - p.clamp(lo, hi);
-            if outside != DVec3::ZERO {
-                outside.length()
-            } else {
-                (p - lo).min(hi - p).min_element()
-            }
-        };
-        use rand::{Rng, SeedableRng};
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let mut unit = || rng.random::<f64>();
-        for _ in 0..500 {
-            let p = DVec3::new(unit() * 12.0 - 1.0, unit() * 8.0 - 1.0, unit() * 5.0 - 1.0);
-            let want = walls(p).min(1.5);
-            let got = s.clearance(&bvh, p, 1.5);
-            assert!((got - want).abs() < 1e-5, "{p}: {got} against {want}");
-        }
-        assert_eq!(s.clearance(&bvh, DVec3::new(5.0, 3.0, 0.0), 1.0), 0.0);
     }
 
     /// Everything a query can observe of `s`, with group ids replaced by

@@ -17,8 +17,9 @@
 //!   estimator of the energy density), which is what catches specular
 //!   energy, including that of rooms without any scattering. The sphere
 //!   grows with the path's length like the ray tube a ray of the lattice
-//!   stands for, up to the listener's clearance, so that every image
-//!   source is caught about once whatever the ray count.
+//!   stands for, so that every image source is caught about once whatever
+//!   the ray count, up to half a mean free path; where it reaches past a
+//!   surface only its part the listener sees counts, in chords and volume.
 //!
 //! The ray then goes on diffusely (Lambert), specularly, or through the
 //! surface (its transmission), picked at random in proportion to the
@@ -38,6 +39,7 @@
 //! gives the same tail, to the bit, on any thread count: a stream of a
 //! static source does not flicker.
 
+mod region;
 mod walk;
 
 use std::time::Instant;
@@ -76,8 +78,8 @@ pub struct TailOptions {
     pub seed: u64,
     /// Radius of the sphere around each listener that detects rays, m,
     /// fixed; `None` sizes the smallest from the room's volume and the ray
-    /// count and lets it grow with the path's length up to the listener's
-    /// clearance from every surface (see `walk::Receivers`).
+    /// count and lets it grow with the path's length up to half a mean free
+    /// path, counted only where the listener sees (see `walk::Receivers`).
     pub receiver_radius_m: Option<f64>,
 }
 
