@@ -12,9 +12,13 @@
 //! chord lies in the region, and the volume is the region's within the
 //! radius. The region is the union of one cone per texel, each cut at the
 //! distance its centre ray travels, so membership and volume agree
-//! exactly, and a leg behind a wall is never counted.
+//! exactly. A chord counts whole by its middle: exact in a convex room,
+//! approximate where a chord crosses the edge of what the listener sees
+//! (a door, a pillar), and within the smallest sphere a thin wall is not
+//! seen at all (as before the region).
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::acoustics::AcousticScene;
 use crate::geometry::Ray;
@@ -45,6 +49,7 @@ impl Region {
     /// ball of radius `min`, found without casting.
     pub fn new(scene: &AcousticScene, listener: DVec3, min: f64, max: f64) -> Self {
         let depth: Vec<f64> = (0..TEXELS)
+            .into_par_iter()
             .map(|t| {
                 if min >= max {
                     return min;

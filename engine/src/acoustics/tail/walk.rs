@@ -294,8 +294,9 @@ impl<'a> Walk<'a> {
     /// on the few near-horizontal rays between its walls. Exactly as many
     /// rays leave at every elevation whatever the seed, where a randomly
     /// turned lattice puts a varying few there: in the 10 x 6 x 3 m box
-    /// with a carpet and a tiled ceiling that cut the spread of its decay
-    /// times over eight seeds from 1.4 to 0.8 just-noticeable differences.
+    /// with a carpet and a tiled ceiling that cut the worst of its decay
+    /// times over eight seeds from 1.4 to 1.1 just-noticeable differences
+    /// (to 0.7 with the spheres' regions, see [`Receivers`]).
     fn direction(&self, ray: usize) -> DVec3 {
         let z = 1.0 - 2.0 * (ray as f64 + self.shift) / self.rays as f64;
         let phi = PI * (3.0 - 5f64.sqrt()) * ray as f64 + self.turn;
