@@ -188,6 +188,33 @@ mod tests {
         AcousticScene::new(&scene)
     }
 
+    /// Two 5 x 4 x 3 m rooms through a 1 x 2 m door: the region holds the
+    /// listener's room and what it sees of the other through the door.
+    #[test]
+    fn the_next_room_is_in_the_region_only_through_the_door() {
+        let rooms = Scene::single_object(
+            "rooms",
+            crate::scene::generate::TwoRooms::boxes()
+                .generate()
+                .unwrap(),
+            Material::uniform("w", 0.1).unwrap(),
+        )
+        .unwrap();
+        let scene = AcousticScene::new(&rooms);
+        let listener = DVec3::new(3.0, 2.0, 1.0);
+        let region = Region::new(&scene, listener, 0.1, 20.0);
+        // Through the door (y 1.5..2.5, z 0..2, at x 5..5.2), and behind
+        // the partition beside it.
+        assert!(region.contains(DVec3::new(7.0, 2.0, 1.0)));
+        assert!(!region.contains(DVec3::new(7.0, 0.5, 1.0)));
+        assert!(!region.contains(DVec3::new(5.5, 2.0, 2.8)));
+        assert!(region.contains(DVec3::new(0.5, 0.5, 2.5)));
+        // All of room A (60 m³) and the cone of room B seen through the
+        // door (about 0.4 sr from 2.2 to 7.2 m away), not all of B.
+        let all = region.volume(1e3);
+        assert!(all > 75.0 && all < 110.0, "{all}");
+    }
+
     #[test]
     fn a_box_rooms_region_is_the_box_and_within_the_clearance_a_ball() {
         let scene = box_room();
