@@ -128,10 +128,12 @@ impl TailOptions {
 impl TailOptions {
     /// The most memory a trace of one source's tail can take for
     /// `listeners` listeners, bytes: every chunk's bins for the whole
-    /// length. Servers bound requests by it.
+    /// length, and each listener's region. Servers bound requests by it.
     pub fn worst_memory_bytes(&self, listeners: usize) -> u64 {
         let bins = (self.max_length_s / BIN_S).ceil().max(0.0) as u64 + 1;
-        listeners as u64 * bins * (BAND_COUNT * std::mem::size_of::<f64>()) as u64 * CHUNKS as u64
+        let per_listener =
+            bins * (BAND_COUNT * std::mem::size_of::<f64>()) as u64 * CHUNKS as u64 + region::BYTES;
+        listeners as u64 * per_listener
     }
 }
 
@@ -249,7 +251,7 @@ pub(crate) fn trace_tail(
     let start = Instant::now();
     let room = Room::of(scene, input);
     let walk = Walk::new(scene, source, input, room.free_path);
-    let receivers = Receivers::new(scene, listeners, input, &room);
+    let receivers = Receivers::new(scene, listeners, input, &room, deadline)?;
     let chunks: Vec<Tally> = chunk_ranges(input.options.rays)
         .into_par_iter()
         .map(|rays| {
@@ -395,7 +397,7 @@ impl TailRecord {
     ) -> Result<TracedTail> {
         let start = Instant::now();
         let room = Room::of(scene, input);
-        let receivers = Receivers::new(scene, listeners, input, &room);
+        let receivers = Receivers::new(scene, listeners, input, &room, deadline)?;
         let chunks: Vec<Tally> = self
             .chunks
             .par_iter()

@@ -27,6 +27,8 @@ use crate::geometry::Ray;
 /// degrees each.
 const SIDE: usize = 16;
 const TEXELS: usize = 6 * SIDE * SIDE;
+/// The memory a region holds: four arrays of about one `f64` per texel.
+pub(super) const BYTES: u64 = (4 * (TEXELS + 1) * std::mem::size_of::<f64>()) as u64;
 
 /// A listener's region: per cube-map texel, the depth the region reaches.
 pub(super) struct Region {

@@ -298,10 +298,7 @@ impl<'a> Walk<'a> {
     /// times over eight seeds from 1.4 to 1.1 just-noticeable differences
     /// (to 0.7 with the spheres' regions, see [`Receivers`]).
     fn direction(&self, ray: usize) -> DVec3 {
-        let z = 1.0 - 2.0 * (ray as f64 + self.shift) / self.rays as f64;
-        let phi = PI * (3.0 - 5f64.sqrt()) * ray as f64 + self.turn;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        DVec3::new(r * phi.cos(), r * phi.sin(), z)
+        lattice_direction(ray, self.rays, self.shift, self.turn)
     }
 
     fn ray(&self, start: DVec3, rng: &mut ChaCha8Rng, emit: &mut impl FnMut(Event)) -> u64 {
@@ -456,20 +453,25 @@ pub(super) struct Receivers<'a> {
 impl<'a> Receivers<'a> {
     /// Spheres of the room's radius growing to its reach within each
     /// listener's region, or of the radius alone when the options fix it.
+    /// Errors: the deadline passed while the regions were cast.
     pub fn new(
         scene: &'a AcousticScene,
         listeners: &'a [DVec3],
         input: &TailInput,
         room: &Room,
-    ) -> Self {
+        deadline: &Deadline,
+    ) -> Result<Self> {
         let radius = room.radius;
         let fixed = input.options.receiver_radius_m.is_some();
         let reach = if fixed { radius } else { room.sphere_reach() };
         let regions = listeners
             .iter()
-            .map(|&l| Region::new(scene, l, radius, reach))
-            .collect();
-        Self {
+            .map(|&l| {
+                deadline.check()?;
+                Ok(Region::new(scene, l, radius, reach))
+            })
+            .collect::<Result<_>>()?;
+        Ok(Self {
             scene,
             listeners,
             radius,
@@ -486,7 +488,7 @@ impl<'a> Receivers<'a> {
             },
             speed: input.speed_of_sound,
             max_length_m: input.options.max_length_s * input.speed_of_sound,
-        }
+        })
     }
 
     /// Counts one event at every listener; its energies are widened only
@@ -603,6 +605,17 @@ fn unit_hash(values: [f64; 4]) -> f64 {
     (h >> 11) as f64 / (1u64 << 53) as f64
 }
 
+/// Point `ray` of the spherical Fibonacci lattice of `rays` points, its
+/// height `shift` (in `[0, 1)`) of the way down its stratum and its
+/// azimuth turned by `turn`: stratum `ray` is the band of heights
+/// `1 − 2 (ray + [0, 1)) / rays`, all of equal area.
+fn lattice_direction(ray: usize, rays: usize, shift: f64, turn: f64) -> DVec3 {
+    let z = 1.0 - 2.0 * (ray as f64 + shift) / rays as f64;
+    let phi = PI * (3.0 - 5f64.sqrt()) * ray as f64 + turn;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    DVec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
 /// A direction in the hemisphere around `normal`, with density
 /// proportional to the cosine from it (Lambert's law).
 fn lambert_direction(rng: &mut ChaCha8Rng, normal: DVec3) -> DVec3 {
@@ -612,4 +625,34 @@ fn lambert_direction(rng: &mut ChaCha8Rng, normal: DVec3) -> DVec3 {
     let r = r2.sqrt();
     let z = (1.0 - r2).max(0.0).sqrt();
     (u * (r * phi.cos()) + v * (r * phi.sin()) + normal * z).normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every ray lies in its own band of heights, whatever the seed's shift
+    /// and turn: exactly one ray per band of equal area. And over shifts
+    /// and turns each ray covers its band uniformly: the mean direction of
+    /// all rays over many draws is the sphere's, zero.
+    #[test]
+    fn the_lattice_puts_one_ray_in_each_band_of_heights() {
+        let rays = 997;
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut sum = DVec3::ZERO;
+        for _ in 0..64 {
+            let (shift, turn) = (rng.random::<f64>(), 2.0 * PI * rng.random::<f64>());
+            let mut in_band = vec![0; rays];
+            for ray in 0..rays {
+                let d = lattice_direction(ray, rays, shift, turn);
+                assert!((d.length() - 1.0).abs() < 1e-12);
+                let band = ((1.0 - d.z) / 2.0 * rays as f64).floor() as usize;
+                in_band[band.min(rays - 1)] += 1;
+                sum += d;
+            }
+            assert!(in_band.iter().all(|&n| n == 1), "a band without its ray");
+        }
+        let mean = sum / (64 * rays) as f64;
+        assert!(mean.length() < 2e-3, "{mean}");
+    }
 }
