@@ -26,6 +26,7 @@
 mod bvh_bench;
 mod ccd;
 mod collide;
+mod jnd;
 mod lod;
 mod mesh;
 mod propagation;

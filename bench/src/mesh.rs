@@ -65,10 +65,19 @@ pub fn resolve(arg: &str) -> PathBuf {
 /// 200k); otherwise the same hall generated at `size` triangles (`20m`,
 /// `5m`, `750k`): the massive scenes, made in code, never stored.
 pub fn hall(size: &str) -> Result<BenchMesh, String> {
+    let name = format!("hall-{size}");
+    let mesh = hall_scene(size)?
+        .world_mesh()
+        .map_err(|e| format!("{name}: {e}"))?;
+    Ok(BenchMesh { name, mesh })
+}
+
+/// [`hall`] as a scene, with its materials.
+pub fn hall_scene(size: &str) -> Result<Scene, String> {
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
     let bundled = scenes.join(format!("hall-{size}.json"));
     if bundled.exists() {
-        return load(&bundled);
+        return Scene::load(&bundled).map_err(|e| format!("{}: {e}", bundled.display()));
     }
     let (digits, scale) = match size.to_ascii_lowercase() {
         s if s.ends_with('k') => (s[..s.len() - 1].to_string(), 1e3),
@@ -87,15 +96,7 @@ pub fn hall(size: &str) -> Result<BenchMesh, String> {
         .pointer_mut("/objects/0/mesh/hall/target_triangles")
         .ok_or("scenes/hall-200k.json: no objects[0].mesh.hall.target_triangles")?;
     *target = triangles.into();
-    let scene =
-        Scene::from_json_str(&doc.to_string(), None).map_err(|e| format!("hall-{size}: {e}"))?;
-    let mesh = scene
-        .world_mesh()
-        .map_err(|e| format!("hall-{size}: {e}"))?;
-    Ok(BenchMesh {
-        name: format!("hall-{size}"),
-        mesh,
-    })
+    Scene::from_json_str(&doc.to_string(), None).map_err(|e| format!("hall-{size}: {e}"))
 }
 
 /// Loads an OBJ, glTF or JSON scene file and flattens it into one

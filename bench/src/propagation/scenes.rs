@@ -29,7 +29,7 @@ pub const NAMES: &[&str] = &[
 
 /// Source and listener per scene: inside the air volume, away from walls,
 /// pillars, seats and the stage (see `engine/src/scene/generate`).
-fn points(name: &str) -> (DVec3, DVec3) {
+pub fn points(name: &str) -> (DVec3, DVec3) {
     match name {
         // 10 x 6 x 3 m box (also the peer's self-test points).
         "shoebox" | "box-192" => (DVec3::new(2.0, 3.0, 1.5), DVec3::new(7.3, 4.1, 1.7)),

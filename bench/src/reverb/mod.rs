@@ -26,16 +26,12 @@ use frusta_engine::acoustics::{
 use frusta_engine::scene::{BAND_COUNT, OCTAVE_BANDS_HZ};
 use serde::Serialize;
 
+use crate::jnd::{self, jnd};
 use crate::propagation::scenes;
 use crate::provenance::{self, Provenance};
 use crate::report::aligned;
 use crate::stats::median;
 use theory::BoxWalls;
-
-/// Just-noticeable differences (ISO 3382-1 Annex A).
-const JND_DECAY: f64 = 0.05;
-const JND_C80_DB: f64 = 1.0;
-const JND_D50: f64 = 0.05;
 
 #[derive(Parser)]
 pub struct Args {
@@ -179,15 +175,6 @@ struct Saved<'a> {
     runs: &'a [Run],
 }
 
-fn jnd(frusta: Option<f64>, reference: Option<f64>, relative: bool, step: f64) -> Option<f64> {
-    let (f, r) = (frusta?, reference?);
-    Some(if relative {
-        (f - r) / r / step
-    } else {
-        (f - r) / step
-    })
-}
-
 /// Runs `name` as it is, or with every material's scattering set to zero
 /// (`specular`): the rooms the exact image sources answer.
 /// Band `band` of a response's echogram: its paths, then its tail.
@@ -310,8 +297,8 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
             let p = &b.parameters;
             let reference = exact.as_ref().map(|e| &e[band].0);
             let decay = |f: Option<f64>, e: Option<f64>| match reference {
-                Some(_) => jnd(f, e, true, JND_DECAY),
-                None => jnd(f, Some(eyring[band]), true, JND_DECAY),
+                Some(_) => jnd(f, e, true, jnd::DECAY),
+                None => jnd(f, Some(eyring[band]), true, jnd::DECAY),
             };
             Band {
                 band_hz: b.band_hz,
@@ -328,9 +315,9 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
                         p.c80_db,
                         reference.and_then(|e| e.c80_db),
                         false,
-                        JND_C80_DB,
+                        jnd::CLARITY_DB,
                     ),
-                    d50: jnd(p.d50, reference.and_then(|e| e.d50), false, JND_D50),
+                    d50: jnd(p.d50, reference.and_then(|e| e.d50), false, jnd::DEFINITION),
                 },
             }
         })
@@ -397,7 +384,7 @@ fn seed_spread(
                 .into_iter()
                 .enumerate()
             {
-                if let Some(d) = jnd(f, x, true, JND_DECAY) {
+                if let Some(d) = jnd(f, x, true, jnd::DECAY) {
                     diffs[band][k].push(d);
                 }
             }

@@ -7,13 +7,15 @@
 //! Bounds and exact geometry run in interleaved rounds on all threads;
 //! times are medians.
 //!
-//! Impulse responses with levels of detail (frusta meeting planes) are not
-//! in the engine yet: every row is a `"rays"` row and the impulse-response
-//! fields are `null`.
+//! Impulse responses run on the hall simplified at each bound (see
+//! [`ir`]), beside exact geometry; their rows are `"ir"` rows.
+
+mod ir;
 
 use std::path::PathBuf;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
+use frusta_engine::acoustics::CellAssignment;
 use frusta_engine::bvh::lod::{self, Cone, LodOptions, LodTree};
 use frusta_engine::bvh::{BuildOptions, MeshBvh};
 use frusta_engine::geometry::Ray;
@@ -22,6 +24,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::mesh;
+use crate::propagation::scenes;
 use crate::provenance::{self, Provenance};
 use crate::stats::median;
 
@@ -43,6 +46,27 @@ pub struct Args {
     /// geometry is always run beside them.
     #[arg(long = "bound")]
     bounds: Vec<f32>,
+    /// Error bounds in metres of the impulse responses (repeatable;
+    /// default 0.5, 1 and 2: a wavelength at about 700, 340 and 170 Hz).
+    #[arg(long = "ir-bound")]
+    ir_bounds: Vec<f32>,
+    /// Reflection order of the impulse responses' exact paths.
+    #[arg(long, default_value_t = 4)]
+    order: u32,
+    /// Cells per frustum side (N) of the impulse responses.
+    #[arg(long, default_value_t = 8)]
+    sampling: u32,
+    /// An impulse response still running after this many seconds is
+    /// stopped and reported as not finished.
+    #[arg(long, default_value_t = 60.0)]
+    ir_limit_s: f64,
+    /// Halls of the impulse responses, as `--hall` (repeatable; default
+    /// 200k).
+    #[arg(long)]
+    ir_hall: Vec<String>,
+    /// Ray queries only.
+    #[arg(long)]
+    no_ir: bool,
     /// Timed rounds; the median is reported.
     #[arg(long, default_value_t = 5)]
     rounds: usize,
@@ -59,26 +83,67 @@ pub struct Args {
 /// left seat block.
 const LISTENER: Vec3 = Vec3::new(22.0, 9.0, 1.7);
 
-/// One bound on one scene.
+/// One bound on one scene: a set of rays, or an impulse response.
 #[derive(Clone, Debug, Serialize)]
 struct Run {
     scene: String,
     query: &'static str,
     lod_bound: f32,
-    ms: f64,
-    exact_ms: f64,
+    /// `None` where it did not finish within the limit.
+    ms: Option<f64>,
+    exact_ms: Option<f64>,
     frusta: Option<u64>,
     energy_error_db_max: Option<f64>,
     parameter_error_jnd_max: Option<f64>,
     /// Largest distance between a ray's hit with levels of detail and its
     /// exact hit, metres.
     hit_displacement_max: Option<f64>,
+    /// Triangles queried: the simplified scene's for impulse responses.
     triangles: usize,
-    rays: usize,
+    rays: Option<usize>,
     /// Rays answered by a plane.
-    plane_hits: usize,
+    plane_hits: Option<usize>,
     /// Rays that hit with one and not the other.
-    hit_mismatches: usize,
+    hit_mismatches: Option<usize>,
+    /// Impulse responses: the cells, the exact geometry's cells compared
+    /// against, the nodes that became polygons, and the time to simplify
+    /// the scene and build it.
+    cells: Option<CellAssignment>,
+    reference_cells: Option<CellAssignment>,
+    polygons: Option<usize>,
+    setup_ms: Option<f64>,
+    /// Of the last run: its paths, and the time of its exact part and of
+    /// its tail (the rest is diffraction, beside the tail, and synthesis).
+    paths: Option<usize>,
+    trace_ms: Option<f64>,
+    tail_ms: Option<f64>,
+}
+
+impl Run {
+    fn new(scene: &str, query: &'static str, lod_bound: f32) -> Self {
+        Self {
+            scene: scene.to_string(),
+            query,
+            lod_bound,
+            ms: None,
+            exact_ms: None,
+            frusta: None,
+            energy_error_db_max: None,
+            parameter_error_jnd_max: None,
+            hit_displacement_max: None,
+            triangles: 0,
+            rays: None,
+            plane_hits: None,
+            hit_mismatches: None,
+            cells: None,
+            reference_cells: None,
+            polygons: None,
+            setup_ms: None,
+            paths: None,
+            trace_ms: None,
+            tail_ms: None,
+        }
+    }
 }
 
 /// A scene's setup: what it took to have the queries ready.
@@ -122,7 +187,16 @@ pub fn run(args: Args) -> Result<(), String> {
     } else {
         args.bounds.clone()
     };
-    if bounds.iter().any(|b| !(b.is_finite() && *b >= 0.0)) {
+    let ir_bounds = if args.ir_bounds.is_empty() {
+        vec![0.5, 1.0, 2.0]
+    } else {
+        args.ir_bounds.clone()
+    };
+    if bounds
+        .iter()
+        .chain(&ir_bounds)
+        .any(|b| !(b.is_finite() && *b >= 0.0))
+    {
         return Err("--bound takes finite non-negative metres".into());
     }
     let rays = sphere_rays(LISTENER, args.rays.max(1));
@@ -180,11 +254,12 @@ pub fn run(args: Args) -> Result<(), String> {
             let mut run = compare(&bvh, &lods, &rays, &exact, o)?;
             run.scene = hall.name.clone();
             run.lod_bound = bound;
-            run.ms = median(t);
-            run.exact_ms = exact_ms;
+            run.ms = Some(median(t));
+            run.exact_ms = Some(exact_ms);
             run.triangles = hall.mesh.triangle_count();
             runs.push(run);
         }
+
         scenes.push(Setup {
             scene: hall.name.clone(),
             triangles: hall.mesh.triangle_count(),
@@ -194,6 +269,31 @@ pub fn run(args: Args) -> Result<(), String> {
             lod_bytes: lods.memory_bytes(),
             peak_rss_mb: peak_rss_mb(),
         });
+    }
+    if !(args.ir_limit_s.is_finite() && args.ir_limit_s > 0.0) {
+        return Err("--ir-limit-s takes a finite number of seconds above 0".into());
+    }
+    let ir_halls = match (args.no_ir, args.ir_hall.is_empty()) {
+        (true, _) => Vec::new(),
+        (false, true) => vec!["200k".to_string()],
+        (false, false) => args.ir_hall.clone(),
+    };
+    let setup = ir::IrSetup {
+        order: args.order,
+        sampling: args.sampling,
+        limit: Duration::from_secs_f64(args.ir_limit_s),
+        rounds: args.rounds,
+    };
+    for size in &ir_halls {
+        let name = format!("hall-{size}");
+        let scene = mesh::hall_scene(size)?;
+        runs.extend(ir::runs(
+            &name,
+            &scene,
+            scenes::points(&name),
+            &ir_bounds,
+            &setup,
+        )?);
     }
     provenance.finish();
     let text = format!(
@@ -236,33 +336,23 @@ fn compare(
         .map(|r| lod::closest_hit(bvh, lods, r, options).map(|h| h.map(|h| (h.hit.t, h.error))))
         .collect::<Result<_, _>>()
         .map_err(|e| e.to_string())?;
-    let mut run = Run {
-        scene: String::new(),
-        query: "rays",
-        lod_bound: 0.0,
-        ms: 0.0,
-        exact_ms: 0.0,
-        frusta: None,
-        energy_error_db_max: None,
-        parameter_error_jnd_max: None,
-        hit_displacement_max: Some(0.0),
-        triangles: 0,
-        rays: rays.len(),
-        plane_hits: 0,
-        hit_mismatches: 0,
-    };
+    let mut run = Run::new("", "rays", 0.0);
+    let (mut moved_max, mut plane_hits, mut mismatches) = (0.0f64, 0, 0);
     for (answer, exact) in answers.iter().zip(exact) {
         match (answer, exact) {
             (Some((t, error)), Some(e)) => {
                 // Unit directions: the distance between the hit points.
-                let moved = f64::from((t - e).abs());
-                run.hit_displacement_max = run.hit_displacement_max.map(|m| m.max(moved));
-                run.plane_hits += usize::from(*error > 0.0);
+                moved_max = moved_max.max(f64::from((t - e).abs()));
+                plane_hits += usize::from(*error > 0.0);
             }
             (None, None) => {}
-            _ => run.hit_mismatches += 1,
+            _ => mismatches += 1,
         }
     }
+    run.hit_displacement_max = Some(moved_max);
+    run.rays = Some(rays.len());
+    run.plane_hits = Some(plane_hits);
+    run.hit_mismatches = Some(mismatches);
     Ok(run)
 }
 
@@ -322,18 +412,71 @@ fn table(runs: &[Run], scenes: &[Setup], args: &Args, cone: Cone) -> String {
     );
     out += &"-".repeat(82);
     out.push('\n');
-    for r in runs {
+    let fmt = |x: Option<f64>, digits: usize| x.map_or("-".into(), |x| format!("{x:.digits$}"));
+    for r in runs.iter().filter(|r| r.query == "rays") {
+        let (ms, exact_ms) = (r.ms.unwrap_or(f64::NAN), r.exact_ms.unwrap_or(f64::NAN));
         out += &format!(
-            "{:<12} {:>8} {:>9.2} {:>9.2} {:>6.2}x {:>10.4} {:>7.1}% {:>11}\n",
+            "{:<12} {:>8} {:>9.2} {:>9.2} {:>6.2}x {:>10} {:>7.1}% {:>11}\n",
             r.scene,
             r.lod_bound,
-            r.ms,
-            r.exact_ms,
-            r.exact_ms / r.ms,
-            r.hit_displacement_max.unwrap_or(f64::NAN),
-            100.0 * r.plane_hits as f64 / r.rays as f64,
-            r.hit_mismatches,
+            ms,
+            exact_ms,
+            exact_ms / ms,
+            fmt(r.hit_displacement_max, 4),
+            100.0 * r.plane_hits.unwrap_or(0) as f64 / r.rays.unwrap_or(1).max(1) as f64,
+            r.hit_mismatches.unwrap_or(0),
         );
+    }
+    if runs.iter().any(|r| r.query == "ir") {
+        out += &format!(
+            "\nimpulse responses with levels of detail: the hall simplified at each bound (every \
+             highest node of error below it one polygon; setup = simplifying and building), exact \
+             paths to order {} (N = {}) then the default tail, air and diffraction, source {:?} and \
+             listener {:?}; ms = median of {} interleaved rounds, - = not finished within {} s; \
+             errors against exact geometry with the cells in `against`: the largest band energy \
+             difference (dB) and the largest EDT, T30, C80 or D50 difference in any band (JND: 5 %, \
+             5 %, 1 dB, 0.05)\n\n",
+            args.order,
+            args.sampling,
+            scenes::points("hall").0.to_array(),
+            scenes::points("hall").1.to_array(),
+            args.rounds.max(1),
+            args.ir_limit_s,
+        );
+        out += &format!(
+            "{:<12} {:<13} {:>7} {:>9} {:>8} {:>8} {:>9} {:>9} {:>7} {:>8} {:>8} {:>8} {:>6} {:>9} {:>6} {:<13}\n",
+            "scene", "cells", "bound m", "triangles", "polygons", "setup ms", "ms", "exact ms",
+            "speed", "trace ms", "tail ms", "frusta", "paths", "energy dB", "JND", "against"
+        );
+        out += &"-".repeat(152);
+        out.push('\n');
+        for r in runs.iter().filter(|r| r.query == "ir") {
+            let name = |c: Option<CellAssignment>| match c {
+                Some(CellAssignment::Sampled) => "sampled",
+                Some(CellAssignment::Conservative) => "conservative",
+                None => "-",
+            };
+            let speed = r.ms.zip(r.exact_ms).map(|(m, e)| e / m);
+            out += &format!(
+                "{:<12} {:<13} {:>7} {:>9} {:>8} {:>8} {:>9} {:>9} {:>6}x {:>8} {:>8} {:>8} {:>6} {:>9} {:>6} {:<13}\n",
+                r.scene,
+                name(r.cells),
+                r.lod_bound,
+                r.triangles,
+                r.polygons.unwrap_or(0),
+                fmt(r.setup_ms, 0),
+                fmt(r.ms, 1),
+                fmt(r.exact_ms, 1),
+                fmt(speed, 2),
+                fmt(r.trace_ms, 1),
+                fmt(r.tail_ms, 1),
+                r.frusta.map_or("-".into(), |f| f.to_string()),
+                r.paths.map_or("-".into(), |f| f.to_string()),
+                fmt(r.energy_error_db_max, 2),
+                fmt(r.parameter_error_jnd_max, 2),
+                name(r.reference_cells),
+            );
+        }
     }
     out
 }

@@ -38,6 +38,8 @@
 //! assert!(near.error > 0.0 && (near.hit.t - exact.hit.t).abs() <= near.error);
 //! ```
 
+mod simplify;
+
 use glam::{DVec3, Vec3, Vec3A};
 use rayon::prelude::*;
 
@@ -47,6 +49,8 @@ use super::wide::Bvh4;
 use super::{MeshBvh, MeshHit};
 use crate::geometry::{Aabb, Ray};
 use crate::{Error, Result};
+
+pub use simplify::{simplify, simplify_scene, Simplified};
 
 /// A node's level of detail: the plane `normal · p = offset`, facing the
 /// side most of its triangles face.

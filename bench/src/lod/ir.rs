@@ -1,0 +1,202 @@
+//! Impulse responses with levels of detail: the hall simplified at each
+//! bound ([`simplify_scene`]: every highest node of error below the bound
+//! one polygon), traced with its tail beside the same on exact geometry:
+//! time, frusta, and the error in energy per band and in ISO 3382
+//! parameters.
+//!
+//! The reference is exact geometry with the same cells where it finishes
+//! within the time limit, else exact geometry with sampled cells
+//! (conservative cells at order 4 in a detailed hall run for minutes:
+//! that explosion is what levels of detail are for).
+
+use std::time::{Duration, Instant};
+
+use frusta_engine::acoustics::{
+    simulate_until, AcousticScene, CellAssignment, Response, SimulationOptions,
+};
+use frusta_engine::bvh::lod::simplify_scene;
+use frusta_engine::scene::{Scene, BAND_COUNT};
+use glam::DVec3;
+
+use super::{ms_since, Run};
+use crate::jnd::{self, jnd};
+use crate::stats::median;
+
+/// What the impulse-response rows run.
+pub struct IrSetup {
+    pub order: u32,
+    pub sampling: u32,
+    /// A run past this is stopped and reported as not finished.
+    pub limit: Duration,
+    pub rounds: usize,
+}
+
+/// One geometry (exact, or simplified at a bound) ready to trace.
+struct Geometry {
+    bound: f32,
+    scene: AcousticScene,
+    triangles: usize,
+    polygons: usize,
+    setup_ms: f64,
+}
+
+/// The rows of one hall: per cell assignment, exact geometry and every
+/// bound, in interleaved rounds.
+pub fn runs(
+    name: &str,
+    scene: &Scene,
+    (source, listener): (DVec3, DVec3),
+    bounds: &[f32],
+    setup: &IrSetup,
+) -> Result<Vec<Run>, String> {
+    let mut geometries = vec![Geometry {
+        bound: 0.0,
+        scene: AcousticScene::new(scene),
+        triangles: scene.triangle_count(),
+        polygons: 0,
+        setup_ms: 0.0,
+    }];
+    for &bound in bounds {
+        let start = Instant::now();
+        let (simple, polygons) = simplify_scene(scene, bound).map_err(|e| e.to_string())?;
+        geometries.push(Geometry {
+            bound,
+            scene: AcousticScene::new(&simple),
+            triangles: simple.triangle_count(),
+            polygons,
+            setup_ms: ms_since(start),
+        });
+        eprintln!(
+            "{name} at {bound} m: {} triangles, {polygons} polygons",
+            simple.triangle_count()
+        );
+    }
+    let points = ([source.as_vec3()], [listener.as_vec3()]);
+    let mut rows = Vec::new();
+    let mut sampled_reference: Option<Response> = None;
+    for cells in [CellAssignment::Sampled, CellAssignment::Conservative] {
+        let options = SimulationOptions {
+            max_order: setup.order,
+            sampling: setup.sampling,
+            cells,
+            ..SimulationOptions::default()
+        };
+        let trace = |g: &Geometry| -> Result<Option<(f64, Response)>, String> {
+            let start = Instant::now();
+            match simulate_until(
+                &g.scene,
+                &points.0,
+                &points.1,
+                &options,
+                start + setup.limit,
+                None,
+            ) {
+                Ok(mut r) => Ok(Some((ms_since(start), r.remove(0)))),
+                Err(frusta_engine::Error::DeadlineExceeded { .. }) => Ok(None),
+                Err(e) => Err(e.to_string()),
+            }
+        };
+        // Per geometry: its times, its last response, or None once a run
+        // did not finish.
+        let mut results: Vec<Option<(Vec<f64>, Response)>> = Vec::new();
+        for g in &geometries {
+            results.push(trace(g)?.map(|(ms, r)| (vec![ms], r)));
+        }
+        let sets = geometries.len();
+        for round in 1..setup.rounds.max(1) {
+            for k in (0..sets).map(|k| (k + round) % sets) {
+                if let Some((times, _)) = &mut results[k] {
+                    match trace(&geometries[k])? {
+                        Some((ms, _)) => times.push(ms),
+                        None => results[k] = None,
+                    }
+                }
+            }
+        }
+        let exact = results[0]
+            .as_ref()
+            .map(|(t, r)| (median(t.clone()), r.clone()));
+        if cells == CellAssignment::Sampled {
+            sampled_reference = exact.as_ref().map(|(_, r)| r.clone());
+        }
+        let (reference, reference_cells) = match &exact {
+            Some((_, r)) => (r.clone(), cells),
+            None => (
+                sampled_reference
+                    .clone()
+                    .ok_or("exact geometry with sampled cells did not finish")?,
+                CellAssignment::Sampled,
+            ),
+        };
+        for (g, result) in geometries.iter().zip(&results).skip(1) {
+            let mut row = Run::new(name, "ir", g.bound);
+            row.cells = Some(cells);
+            row.reference_cells = Some(reference_cells);
+            row.exact_ms = exact.as_ref().map(|(ms, _)| *ms);
+            row.triangles = g.triangles;
+            row.polygons = Some(g.polygons);
+            row.setup_ms = Some(g.setup_ms);
+            if let Some((times, response)) = result {
+                row.ms = Some(median(times.clone()));
+                row.frusta = Some(response.stats.frusta);
+                row.paths = Some(response.paths.len());
+                row.trace_ms = Some(response.stats.trace_ms);
+                row.tail_ms = response.stats.tail.as_ref().map(|t| t.trace_ms);
+                row.energy_error_db_max = Some(energy_error_db(response, &reference));
+                row.parameter_error_jnd_max = parameter_error_jnd(response, &reference);
+            }
+            rows.push(row);
+        }
+        if let Some((_, r)) = &exact {
+            eprintln!("{name} exact, {cells:?}: {} frusta", r.stats.frusta);
+        }
+    }
+    Ok(rows)
+}
+
+/// The energy of each band: the paths', then the tail's.
+fn band_energy(r: &Response) -> [f64; BAND_COUNT] {
+    let mut e = [0.0; BAND_COUNT];
+    for p in &r.paths {
+        for (e, g) in e.iter_mut().zip(&p.pressure_gain) {
+            *e += f64::from(*g).powi(2);
+        }
+    }
+    if let Some(late) = &r.late_energy {
+        for (b, e) in e.iter_mut().enumerate().take(r.bands_hz.len()) {
+            *e += late.energy(b);
+        }
+    }
+    e
+}
+
+/// The largest difference in any band's energy, dB.
+fn energy_error_db(r: &Response, reference: &Response) -> f64 {
+    let (a, b) = (band_energy(r), band_energy(reference));
+    a.iter()
+        .zip(&b)
+        .take(r.bands_hz.len())
+        .map(|(a, b)| (10.0 * (a / b).log10()).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The largest difference in EDT, T30, C80 or D50 in any band, in
+/// just-noticeable differences; `None` where none can be compared.
+fn parameter_error_jnd(r: &Response, reference: &Response) -> Option<f64> {
+    let mut worst: Option<f64> = None;
+    for (p, q) in r.parameters.iter().zip(&reference.parameters) {
+        let (p, q) = (&p.parameters, &q.parameters);
+        for d in [
+            jnd(p.edt_s, q.edt_s, true, jnd::DECAY),
+            jnd(p.t30_s, q.t30_s, true, jnd::DECAY),
+            jnd(p.c80_db, q.c80_db, false, jnd::CLARITY_DB),
+            jnd(p.d50, q.d50, false, jnd::DEFINITION),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            worst = Some(worst.map_or(d.abs(), |w| w.max(d.abs())));
+        }
+    }
+    worst
+}

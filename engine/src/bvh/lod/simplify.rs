@@ -1,0 +1,482 @@
+//! A mesh standing for another within an error bound: the tree's levels of
+//! detail cut where their error first falls below the bound. Every highest
+//! node whose error is below it becomes one flat polygon, the convex hull
+//! of its triangles' corners projected onto its plane; every triangle not
+//! under such a node is kept as it is, with its vertices.
+//!
+//! What a frustum tracer needs in a detailed scene: features smaller than
+//! the bound (seats, mouldings, slats) cost nothing, and the simplified
+//! mesh is a plain mesh, so every exact method runs on it unchanged and
+//! is exact for it. The hull covers the node's projected footprint, no
+//! more: a tessellated flat patch becomes its own outline (exactly, where
+//! it is convex), and gaps narrower than the node close. Neighbouring
+//! polygons share no vertices; between them are the cracks and overlaps
+//! of the R-LOD paper, at most the bound wide.
+//!
+//! ```
+//! use frusta_engine::bvh::lod::simplify;
+//! use frusta_engine::geometry::shapes;
+//!
+//! let sphere = shapes::icosphere(1.0, 4);
+//! let coarse = simplify(&sphere, 0.5).unwrap();
+//! assert!(coarse.mesh.triangle_count() < sphere.triangle_count() / 4);
+//! let exact = simplify(&sphere, 0.0).unwrap();
+//! assert_eq!(exact.mesh, sphere);
+//! ```
+
+use glam::{DVec2, DVec3, Vec3};
+
+use super::{for_each_leaf_below, LodTree};
+use crate::bvh::{BuildOptions, MeshBvh};
+use crate::geometry::TriangleMesh;
+use crate::scene::{Scene, SceneObject};
+use crate::{Error, Result};
+
+/// A mesh standing for another (see the module doc).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Simplified {
+    pub mesh: TriangleMesh,
+    /// Per triangle of `mesh`, the original triangle it stands for: itself,
+    /// or the largest below a polygon's node (where its material comes
+    /// from).
+    pub origin: Vec<u32>,
+    /// Nodes replaced by their polygons.
+    pub polygons: usize,
+}
+
+/// `mesh` with every highest node of its tree whose level of detail has
+/// an error below `max_error` (in the mesh's units) replaced by its
+/// polygon: every corner of `mesh` lies within `max_error` of the result.
+/// A bound of 0 (or one below every node's error) gives the mesh itself.
+pub fn simplify(mesh: &TriangleMesh, max_error: f32) -> Result<Simplified> {
+    if !(max_error.is_finite() && max_error >= 0.0) {
+        return Err(Error::InvalidOption {
+            field: "lod_error_m".into(),
+            reason: format!("must be a finite distance of at least 0, not {max_error}"),
+        });
+    }
+    let bvh = MeshBvh::build(mesh, &BuildOptions::default());
+    let lods = LodTree::fit(&bvh);
+    Ok(cut(mesh, &bvh, &lods, max_error))
+}
+
+/// `scene` with every object [simplified](simplify) in its own frame, each
+/// polygon of the material of the triangle it stands for. Also returns
+/// how many nodes became polygons.
+pub fn simplify_scene(scene: &Scene, max_error: f32) -> Result<(Scene, usize)> {
+    let mut polygons = 0;
+    let objects = scene
+        .objects
+        .iter()
+        .map(|o| {
+            let s = simplify(&o.mesh, max_error)?;
+            polygons += s.polygons;
+            Ok(SceneObject {
+                materials: s.origin.iter().map(|&t| o.materials[t as usize]).collect(),
+                mesh: s.mesh,
+                name: o.name.clone(),
+                transform: o.transform,
+                dynamic: o.dynamic,
+            })
+        })
+        .collect::<Result<_>>()?;
+    Ok((
+        Scene {
+            materials: scene.materials.clone(),
+            objects,
+        },
+        polygons,
+    ))
+}
+
+/// [`simplify`] with the tree and its planes at hand.
+fn cut(mesh: &TriangleMesh, bvh: &MeshBvh, lods: &LodTree, max_error: f32) -> Simplified {
+    if !(max_error > lods.least_error) || mesh.triangle_count() == 0 {
+        return Simplified {
+            mesh: mesh.clone(),
+            origin: (0..mesh.triangle_count() as u32).collect(),
+            polygons: 0,
+        };
+    }
+    let tree = bvh.wide();
+    let mut kept = Vec::new();
+    let mut out = Polygons::default();
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let plane = lods.plane(i);
+        let flat = plane.deviation <= FLAT * plane.error;
+        if lods.errors[i] < max_error && plane.deviation < max_error && !flat {
+            out.add(mesh, bvh, lods, i);
+            continue;
+        }
+        let node = &tree.nodes[i];
+        for (first, count) in node.leaves() {
+            kept.extend_from_slice(&bvh.prim_ids()[first as usize..(first + count) as usize]);
+        }
+        stack.extend(node.inner_children());
+    }
+    kept.sort_unstable();
+    // The kept triangles' vertices, renumbered in order, then the polygons'.
+    let mut index = vec![u32::MAX; mesh.vertex_count()];
+    let mut positions = Vec::new();
+    let mut triangles = Vec::with_capacity(kept.len() + out.triangles.len());
+    for &t in &kept {
+        triangles.push(mesh.triangles()[t as usize].map(|v| {
+            let slot = &mut index[v as usize];
+            if *slot == u32::MAX {
+                *slot = positions.len() as u32;
+                positions.push(mesh.positions()[v as usize]);
+            }
+            *slot
+        }));
+    }
+    let base = positions.len() as u32;
+    positions.extend(&out.positions);
+    triangles.extend(out.triangles.iter().map(|t| t.map(|v| v + base)));
+    let mut origin = kept;
+    origin.extend(&out.origin);
+    Simplified {
+        mesh: TriangleMesh::new(positions, triangles)
+            .expect("kept triangles and finite hull corners make a valid mesh"),
+        origin,
+        polygons: out.count,
+    }
+}
+
+/// A node whose corners all lie this close to its plane, relative to its
+/// error (about its size), is flat: its triangles are kept, exact. A
+/// tessellated wall then stays the one plane it is, where a polygon per
+/// node would split it into slightly different planes (one frustum each).
+const FLAT: f32 = 1e-4;
+
+/// The polygons of the cut so far.
+#[derive(Default)]
+struct Polygons {
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    origin: Vec<u32>,
+    count: usize,
+    /// Scratch: the node's corners in the plane.
+    points: Vec<DVec2>,
+}
+
+impl Polygons {
+    /// Node `node`'s polygon: the hull of its corners on its plane, fanned
+    /// into triangles wound counter-clockwise about the plane's normal.
+    ///
+    /// The plane is the node's own (least squares), or that of its largest
+    /// triangle where every corner lies as close to that one: a polygon of
+    /// clutter on a floor then lies in the floor's plane, and reflects with
+    /// it as one.
+    fn add(&mut self, mesh: &TriangleMesh, bvh: &MeshBvh, lods: &LodTree, node: usize) {
+        let plane = lods.plane(node);
+        let triangles = bvh.leaf_triangles();
+        let corners = || {
+            let mut all = Vec::new();
+            for_each_leaf_below(bvh.wide(), node, |first, count| {
+                for t in &triangles[first as usize..(first + count) as usize] {
+                    all.extend(t.iter().map(|p| Vec3::from(*p).as_dvec3()));
+                }
+            });
+            all
+        };
+        let corners = corners();
+        let [a, b, c] = mesh
+            .corners(plane.triangle as usize)
+            .map(|p| Vec3::from(p).as_dvec3());
+        let largest = (b - a).cross(c - a).normalize_or_zero();
+        let deviation = |n: DVec3, offset: f64| {
+            corners
+                .iter()
+                .fold(0.0f64, |m, p| m.max((n.dot(*p) - offset).abs()))
+        };
+        let (normal, offset) = if largest != DVec3::ZERO
+            && deviation(largest, largest.dot(a)) <= f64::from(plane.deviation)
+        {
+            (largest, largest.dot(a))
+        } else {
+            (plane.normal.as_dvec3(), f64::from(plane.offset))
+        };
+        let (u, v) = normal.any_orthonormal_pair();
+        let centre = normal * offset;
+        self.points.clear();
+        self.points.extend(corners.iter().map(|p| {
+            let p = *p - centre;
+            DVec2::new(p.dot(u), p.dot(v))
+        }));
+        let hull = convex_hull(&mut self.points);
+        let Some(rectangle) = smallest_rectangle(&hull) else {
+            return;
+        };
+        let base = self.positions.len() as u32;
+        self.positions.extend(
+            rectangle
+                .iter()
+                .map(|p| (centre + u * p.x + v * p.y).as_vec3()),
+        );
+        for k in [1, 2] {
+            self.triangles.push([base, base + k, base + k + 1]);
+            self.origin.push(plane.triangle);
+        }
+        self.count += 1;
+    }
+}
+
+/// The rectangle of least area around the convex polygon `hull`
+/// (counter-clockwise), its corners counter-clockwise; one side lies on a
+/// side of the hull (Freeman and Shapira 1975). `None` for no area.
+fn smallest_rectangle(hull: &[DVec2]) -> Option<[DVec2; 4]> {
+    if hull.len() < 3 {
+        return None;
+    }
+    let mut best: Option<(f64, [DVec2; 4])> = None;
+    for (k, &a) in hull.iter().enumerate() {
+        let along = (hull[(k + 1) % hull.len()] - a).normalize_or_zero();
+        if along == DVec2::ZERO {
+            continue;
+        }
+        let across = along.perp();
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        for p in hull {
+            let q = DVec2::new(p.dot(along), p.dot(across));
+            (lo, hi) = (lo.min(q), hi.max(q));
+        }
+        let area = (hi - lo).element_product();
+        if best.is_none_or(|(b, _)| area < b) {
+            let at = |x: f64, y: f64| along * x + across * y;
+            best = Some((
+                area,
+                [
+                    at(lo.x, lo.y),
+                    at(hi.x, lo.y),
+                    at(hi.x, hi.y),
+                    at(lo.x, hi.y),
+                ],
+            ));
+        }
+    }
+    best.filter(|(area, _)| *area > 0.0).map(|(_, r)| r)
+}
+
+/// The convex hull of `points`, counter-clockwise, without collinear
+/// points (Andrew's monotone chain: the lower chain left to right, then
+/// the upper right to left); sorts `points`.
+fn convex_hull(points: &mut [DVec2]) -> Vec<DVec2> {
+    points.sort_unstable_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    let mut hull: Vec<DVec2> = Vec::with_capacity(points.len() + 1);
+    let extend = |hull: &mut Vec<DVec2>, p: DVec2, floor: usize| {
+        while hull.len() >= floor + 2 {
+            let (o, a) = (hull[hull.len() - 2], hull[hull.len() - 1]);
+            if (a - o).perp_dot(p - o) > 0.0 {
+                break;
+            }
+            hull.pop();
+        }
+        hull.push(p);
+    };
+    for &p in points.iter() {
+        extend(&mut hull, p, 0);
+    }
+    hull.pop();
+    let floor = hull.len();
+    for &p in points.iter().rev() {
+        extend(&mut hull, p, floor);
+    }
+    hull.pop();
+    hull
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::shapes;
+    use crate::scene::Material;
+
+    /// Distance from `p` to triangle `abc` in f64, by cases (Ericson,
+    /// Real-Time Collision Detection 5.1.5): the reference the
+    /// simplification is checked against.
+    fn point_triangle(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
+        let (ab, ac, ap) = (b - a, c - a, p - a);
+        let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+        if d1 <= 0.0 && d2 <= 0.0 {
+            return p.distance(a);
+        }
+        let bp = p - b;
+        let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+        if d3 >= 0.0 && d4 <= d3 {
+            return p.distance(b);
+        }
+        let vc = d1 * d4 - d3 * d2;
+        if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+            return p.distance(a + ab * (d1 / (d1 - d3)));
+        }
+        let cp = p - c;
+        let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+        if d6 >= 0.0 && d5 <= d6 {
+            return p.distance(c);
+        }
+        let vb = d5 * d2 - d1 * d6;
+        if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+            return p.distance(a + ac * (d2 / (d2 - d6)));
+        }
+        let va = d3 * d6 - d5 * d4;
+        if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+            return p.distance(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
+        }
+        let denom = 1.0 / (va + vb + vc);
+        p.distance(a + ab * (vb * denom) + ac * (vc * denom))
+    }
+
+    fn corners64(mesh: &TriangleMesh, t: usize) -> [DVec3; 3] {
+        mesh.corners(t).map(|p| Vec3::from(p).as_dvec3())
+    }
+
+    fn distance_to(mesh: &TriangleMesh, p: DVec3) -> f64 {
+        (0..mesh.triangle_count())
+            .map(|t| point_triangle(p, corners64(mesh, t)))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// A bumpy sphere (every node curved) at three bounds: fewer triangles
+    /// as the bound grows, every original corner within the bound of the
+    /// simplified surface, and every new corner within three bounds of an
+    /// original one (a node's rectangle spans at most its diameter).
+    #[test]
+    fn every_corner_stays_within_the_bound() {
+        let sphere = shapes::icosphere(2.0, 4);
+        let mut last = sphere.triangle_count();
+        for bound in [0.3f32, 0.6, 1.2] {
+            let s = simplify(&sphere, bound).unwrap();
+            assert!(s.polygons > 0, "bound {bound}: nothing simplified");
+            assert!(s.mesh.triangle_count() < last, "bound {bound}");
+            last = s.mesh.triangle_count();
+            for p in sphere.positions() {
+                let d = distance_to(&s.mesh, p.as_dvec3());
+                assert!(
+                    d <= f64::from(bound),
+                    "bound {bound}: corner {p} is {d} away"
+                );
+            }
+            for p in s.mesh.positions() {
+                let nearest = sphere
+                    .positions()
+                    .iter()
+                    .map(|q| q.as_dvec3().distance(p.as_dvec3()))
+                    .fold(f64::INFINITY, f64::min);
+                assert!(nearest <= 3.0 * f64::from(bound), "bound {bound}: {p}");
+            }
+        }
+    }
+
+    /// A tessellated tilted floor is flat however large the bound: its
+    /// triangles are kept as they are (one plane, not one per node).
+    #[test]
+    fn a_flat_floor_is_kept_exact() {
+        let tilt = glam::Quat::from_rotation_x(0.3);
+        let n = 16u32;
+        let positions: Vec<Vec3> = (0..=n)
+            .flat_map(|j| (0..=n).map(move |i| tilt * Vec3::new(i as f32, j as f32, 2.0)))
+            .collect();
+        let corner = |i: u32, j: u32| j * (n + 1) + i;
+        let triangles: Vec<[u32; 3]> = (0..n)
+            .flat_map(|j| (0..n).map(move |i| (i, j)))
+            .flat_map(|(i, j)| {
+                let (a, b) = (corner(i, j), corner(i + 1, j));
+                let (c, d) = (corner(i + 1, j + 1), corner(i, j + 1));
+                [[a, b, c], [a, c, d]]
+            })
+            .collect();
+        let floor = TriangleMesh::new(positions, triangles).unwrap();
+        let s = simplify(&floor, 100.0).unwrap();
+        assert_eq!(s.polygons, 0);
+        let key = |m: &TriangleMesh, t: usize| m.corners(t).map(|p| Vec3::from(p).to_array());
+        let mut before: Vec<_> = (0..floor.triangle_count())
+            .map(|t| key(&floor, t))
+            .collect();
+        let mut after: Vec<_> = (0..s.mesh.triangle_count())
+            .map(|t| key(&s.mesh, t))
+            .collect();
+        before.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        after.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        assert_eq!(before, after);
+    }
+
+    /// Polygons take the material of what they stand for: a ball of one
+    /// material above a floor of another, simplified together, keeps the
+    /// floor's material on the floor and the ball's everywhere else.
+    #[test]
+    fn polygons_keep_their_material() {
+        let ball = shapes::icosphere(0.5, 3);
+        let mut positions: Vec<Vec3> = ball
+            .positions()
+            .iter()
+            .map(|p| *p + Vec3::new(0.0, 0.0, 2.0))
+            .collect();
+        let mut triangles = ball.triangles().to_vec();
+        let base = positions.len() as u32;
+        positions.extend([
+            Vec3::new(-5.0, -5.0, 0.0),
+            Vec3::new(5.0, -5.0, 0.0),
+            Vec3::new(5.0, 5.0, 0.0),
+            Vec3::new(-5.0, 5.0, 0.0),
+        ]);
+        triangles.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+        let raw = crate::scene::RawMesh {
+            positions,
+            triangles,
+            ..Default::default()
+        };
+        let mut scene =
+            Scene::single_object("room", raw, Material::uniform("ball", 0.1).unwrap()).unwrap();
+        scene
+            .materials
+            .push(Material::uniform("floor", 0.5).unwrap());
+        let count = scene.objects[0].materials.len();
+        scene.objects[0].materials[count - 2..].fill(1);
+        let (simple, polygons) = simplify_scene(&scene, 0.4).unwrap();
+        assert!(polygons > 0);
+        let o = &simple.objects[0];
+        assert!(o.mesh.triangle_count() < count);
+        for (t, &m) in o.materials.iter().enumerate() {
+            let on_floor = o.mesh.corners(t).iter().all(|p| p.z == 0.0);
+            assert_eq!(m, u16::from(on_floor), "triangle {t}");
+        }
+    }
+
+    #[test]
+    fn bounds_must_be_finite_distances() {
+        let sphere = shapes::icosphere(1.0, 1);
+        for bad in [f32::NAN, -1.0, f32::INFINITY] {
+            let e = simplify(&sphere, bad).unwrap_err().to_string();
+            assert!(e.contains("lod_error_m"), "{e}");
+        }
+    }
+
+    /// The hull drops inner and collinear points; the rectangle around a
+    /// turned square is the square itself.
+    #[test]
+    fn hull_and_rectangle_of_a_turned_square() {
+        let turn = glam::DMat2::from_angle(0.4);
+        let square = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (1.0, 1.0),
+            (0.0, 1.0),
+            (0.5, 0.0),
+            (0.3, 0.6),
+        ]
+        .map(|(x, y)| turn * DVec2::new(x, y));
+        let hull = convex_hull(&mut square.to_vec());
+        assert_eq!(hull.len(), 4);
+        let area: f64 = (0..4)
+            .map(|k| hull[k].perp_dot(hull[(k + 1) % 4]))
+            .sum::<f64>()
+            / 2.0;
+        assert!((area - 1.0).abs() < 1e-12, "counter-clockwise, area {area}");
+        let r = smallest_rectangle(&hull).unwrap();
+        let sides = (r[1] - r[0]).length() * (r[3] - r[0]).length();
+        assert!((sides - 1.0).abs() < 1e-12, "{r:?}");
+        assert!(smallest_rectangle(&hull[..2]).is_none());
+        assert!(convex_hull(&mut [DVec2::ONE; 5]).len() < 3);
+    }
+}
