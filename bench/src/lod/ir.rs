@@ -12,10 +12,10 @@
 use std::time::{Duration, Instant};
 
 use frusta_engine::acoustics::{
-    simulate_until, AcousticScene, CellAssignment, Response, SimulationOptions,
+    simulate_until, AcousticScene, CellAssignment, Response, SimulationOptions, Tail,
 };
 use frusta_engine::bvh::lod::simplify_scene;
-use frusta_engine::scene::{Scene, BAND_COUNT};
+use frusta_engine::scene::{Scene, OCTAVE_BANDS_HZ};
 use glam::DVec3;
 
 use super::{ms_since, Run};
@@ -74,20 +74,15 @@ pub fn runs(
     let points = ([source.as_vec3()], [listener.as_vec3()]);
     let mut rows = Vec::new();
     let mut sampled_reference: Option<Response> = None;
-    for cells in [CellAssignment::Sampled, CellAssignment::Conservative] {
-        let options = SimulationOptions {
-            max_order: setup.order,
-            sampling: setup.sampling,
-            cells,
-            ..SimulationOptions::default()
-        };
-        let trace = |g: &Geometry| -> Result<Option<(f64, Response)>, String> {
+    let mut noise: Option<(f64, Option<f64>)> = None;
+    let trace =
+        |g: &Geometry, options: &SimulationOptions| -> Result<Option<(f64, Response)>, String> {
             let start = Instant::now();
             match simulate_until(
                 &g.scene,
                 &points.0,
                 &points.1,
-                &options,
+                options,
                 start + setup.limit,
                 None,
             ) {
@@ -96,20 +91,30 @@ pub fn runs(
                 Err(e) => Err(e.to_string()),
             }
         };
-        // Per geometry: its times, its last response, or None once a run
-        // did not finish.
+    for cells in [CellAssignment::Sampled, CellAssignment::Conservative] {
+        let options = SimulationOptions {
+            max_order: setup.order,
+            sampling: setup.sampling,
+            cells,
+            ..SimulationOptions::default()
+        };
+        // Per geometry: its times and its first response; None where the
+        // first run did not finish. A later run that does not finish ends
+        // that geometry's rounds.
         let mut results: Vec<Option<(Vec<f64>, Response)>> = Vec::new();
         for g in &geometries {
-            results.push(trace(g)?.map(|(ms, r)| (vec![ms], r)));
+            results.push(trace(g, &options)?.map(|(ms, r)| (vec![ms], r)));
         }
+        let mut running: Vec<bool> = results.iter().map(Option::is_some).collect();
         let sets = geometries.len();
         for round in 1..setup.rounds.max(1) {
             for k in (0..sets).map(|k| (k + round) % sets) {
-                if let Some((times, _)) = &mut results[k] {
-                    match trace(&geometries[k])? {
-                        Some((ms, _)) => times.push(ms),
-                        None => results[k] = None,
-                    }
+                if !running[k] {
+                    continue;
+                }
+                match (trace(&geometries[k], &options)?, &mut results[k]) {
+                    (Some((ms, _)), Some((times, _))) => times.push(ms),
+                    _ => running[k] = false,
                 }
             }
         }
@@ -118,32 +123,47 @@ pub fn runs(
             .map(|(t, r)| (median(t.clone()), r.clone()));
         if cells == CellAssignment::Sampled {
             sampled_reference = exact.as_ref().map(|(_, r)| r.clone());
+            // The tail's own noise: exact geometry again with the next
+            // seed, what differences below it cannot be told from.
+            if let Some(reference) = &sampled_reference {
+                let mut reseeded = options.clone();
+                if let Tail::Stochastic(t) = &mut reseeded.tail {
+                    t.seed += 1;
+                }
+                if let Some((_, r)) = trace(&geometries[0], &reseeded)? {
+                    noise = Some((
+                        energy_error_db(&r, reference),
+                        parameter_error_jnd(&r, reference),
+                    ));
+                }
+            }
         }
-        let (reference, reference_cells) = match &exact {
-            Some((_, r)) => (r.clone(), cells),
-            None => (
-                sampled_reference
-                    .clone()
-                    .ok_or("exact geometry with sampled cells did not finish")?,
-                CellAssignment::Sampled,
-            ),
+        let reference = match &exact {
+            Some((_, r)) => Some((r.clone(), cells)),
+            None => sampled_reference
+                .clone()
+                .map(|r| (r, CellAssignment::Sampled)),
         };
         for (g, result) in geometries.iter().zip(&results).skip(1) {
             let mut row = Run::new(name, "ir", g.bound);
             row.cells = Some(cells);
-            row.reference_cells = Some(reference_cells);
+            row.reference_cells = reference.as_ref().map(|(_, c)| *c);
             row.exact_ms = exact.as_ref().map(|(ms, _)| *ms);
             row.triangles = g.triangles;
             row.polygons = Some(g.polygons);
             row.setup_ms = Some(g.setup_ms);
+            row.tail_noise_db = noise.map(|(db, _)| db);
+            row.tail_noise_jnd = noise.and_then(|(_, jnd)| jnd);
             if let Some((times, response)) = result {
                 row.ms = Some(median(times.clone()));
                 row.frusta = Some(response.stats.frusta);
                 row.paths = Some(response.paths.len());
                 row.trace_ms = Some(response.stats.trace_ms);
                 row.tail_ms = response.stats.tail.as_ref().map(|t| t.trace_ms);
-                row.energy_error_db_max = Some(energy_error_db(response, &reference));
-                row.parameter_error_jnd_max = parameter_error_jnd(response, &reference);
+                if let Some((reference, _)) = &reference {
+                    row.energy_error_db_max = Some(energy_error_db(response, reference));
+                    row.parameter_error_jnd_max = parameter_error_jnd(response, reference);
+                }
             }
             rows.push(row);
         }
@@ -154,20 +174,27 @@ pub fn runs(
     Ok(rows)
 }
 
-/// The energy of each band: the paths', then the tail's.
-fn band_energy(r: &Response) -> [f64; BAND_COUNT] {
-    let mut e = [0.0; BAND_COUNT];
-    for p in &r.paths {
-        for (e, g) in e.iter_mut().zip(&p.pressure_gain) {
-            *e += f64::from(*g).powi(2);
-        }
-    }
-    if let Some(late) = &r.late_energy {
-        for (b, e) in e.iter_mut().enumerate().take(r.bands_hz.len()) {
-            *e += late.energy(b);
-        }
-    }
-    e
+/// The energy of each requested band: the paths', then the tail's (whose
+/// histogram holds every octave band).
+fn band_energy(r: &Response) -> Vec<f64> {
+    r.bands_hz
+        .iter()
+        .enumerate()
+        .map(|(i, hz)| {
+            let paths: f64 = r
+                .paths
+                .iter()
+                .map(|p| f64::from(p.pressure_gain[i]).powi(2))
+                .sum();
+            let octave = OCTAVE_BANDS_HZ.iter().position(|c| c == hz);
+            let late = r
+                .late_energy
+                .as_ref()
+                .zip(octave)
+                .map_or(0.0, |(l, b)| l.energy(b));
+            paths + late
+        })
+        .collect()
 }
 
 /// The largest difference in any band's energy, dB.
@@ -175,22 +202,31 @@ fn energy_error_db(r: &Response, reference: &Response) -> f64 {
     let (a, b) = (band_energy(r), band_energy(reference));
     a.iter()
         .zip(&b)
-        .take(r.bands_hz.len())
         .map(|(a, b)| (10.0 * (a / b).log10()).abs())
         .fold(0.0, f64::max)
 }
 
 /// The largest difference in EDT, T30, C80 or D50 in any band, in
-/// just-noticeable differences; `None` where none can be compared.
+/// just-noticeable differences (infinite where one response has a
+/// parameter the other lacks); `None` where none can be compared.
 fn parameter_error_jnd(r: &Response, reference: &Response) -> Option<f64> {
     let mut worst: Option<f64> = None;
     for (p, q) in r.parameters.iter().zip(&reference.parameters) {
         let (p, q) = (&p.parameters, &q.parameters);
+        let one_sided = [
+            (p.edt_s, q.edt_s),
+            (p.t30_s, q.t30_s),
+            (p.c80_db, q.c80_db),
+            (p.d50, q.d50),
+        ]
+        .iter()
+        .any(|(a, b)| a.is_some() != b.is_some());
         for d in [
             jnd(p.edt_s, q.edt_s, true, jnd::DECAY),
             jnd(p.t30_s, q.t30_s, true, jnd::DECAY),
             jnd(p.c80_db, q.c80_db, false, jnd::CLARITY_DB),
             jnd(p.d50, q.d50, false, jnd::DEFINITION),
+            one_sided.then_some(f64::INFINITY),
         ]
         .into_iter()
         .flatten()

@@ -112,11 +112,15 @@ struct Run {
     reference_cells: Option<CellAssignment>,
     polygons: Option<usize>,
     setup_ms: Option<f64>,
-    /// Of the last run: its paths, and the time of its exact part and of
+    /// Of the first run: its paths, and the time of its exact part and of
     /// its tail (the rest is diffraction, beside the tail, and synthesis).
     paths: Option<usize>,
     trace_ms: Option<f64>,
     tail_ms: Option<f64>,
+    /// The errors of exact geometry with the tail's next seed: the tail's
+    /// own noise, below which a difference says nothing of the bound.
+    tail_noise_db: Option<f64>,
+    tail_noise_jnd: Option<f64>,
 }
 
 impl Run {
@@ -142,6 +146,8 @@ impl Run {
             paths: None,
             trace_ms: None,
             tail_ms: None,
+            tail_noise_db: None,
+            tail_noise_jnd: None,
         }
     }
 }
@@ -198,6 +204,9 @@ pub fn run(args: Args) -> Result<(), String> {
         .any(|b| !(b.is_finite() && *b >= 0.0))
     {
         return Err("--bound takes finite non-negative metres".into());
+    }
+    if !(args.ir_limit_s.is_finite() && args.ir_limit_s > 0.0) {
+        return Err("--ir-limit-s takes a finite number of seconds above 0".into());
     }
     let rays = sphere_rays(LISTENER, args.rays.max(1));
     let cone = Cone {
@@ -269,9 +278,6 @@ pub fn run(args: Args) -> Result<(), String> {
             lod_bytes: lods.memory_bytes(),
             peak_rss_mb: peak_rss_mb(),
         });
-    }
-    if !(args.ir_limit_s.is_finite() && args.ir_limit_s > 0.0) {
-        return Err("--ir-limit-s takes a finite number of seconds above 0".into());
     }
     let ir_halls = match (args.no_ir, args.ir_hall.is_empty()) {
         (true, _) => Vec::new(),
@@ -450,6 +456,7 @@ fn table(runs: &[Run], scenes: &[Setup], args: &Args, cone: Cone) -> String {
         );
         out += &"-".repeat(152);
         out.push('\n');
+        let mut noise = Vec::new();
         for r in runs.iter().filter(|r| r.query == "ir") {
             let name = |c: Option<CellAssignment>| match c {
                 Some(CellAssignment::Sampled) => "sampled",
@@ -475,6 +482,16 @@ fn table(runs: &[Run], scenes: &[Setup], args: &Args, cone: Cone) -> String {
                 fmt(r.energy_error_db_max, 2),
                 fmt(r.parameter_error_jnd_max, 2),
                 name(r.reference_cells),
+            );
+            noise.push((r.scene.clone(), r.tail_noise_db, r.tail_noise_jnd));
+        }
+        noise.dedup_by(|a, b| a.0 == b.0);
+        for (scene, db, jnd) in noise {
+            out += &format!(
+                "tail noise in {scene} (exact geometry, sampled cells, the tail's next seed against \
+                 its first): {} dB, {} JND\n",
+                fmt(db, 2),
+                fmt(jnd, 2)
             );
         }
     }
