@@ -19,9 +19,10 @@
 //! impulse responses beside exact image sources, Sabine and Eyring (see
 //! `reverb`); `frusta-bench shadows [--scene NAME] [--json] [--save DIR]`
 //! times hard shadows by shadow map, selective and full ray tracing (see
-//! `shadows`); `frusta-bench lod [--hall SIZE] [--bound M] [--json] [--save
-//! DIR]` sets ray queries on levels of detail beside exact geometry (see
-//! `lod`).
+//! `shadows`); `frusta-bench lod [--hall SIZE] [--bound M] [--ir-bound M]
+//! [--json] [--save DIR]` sets ray queries on levels of detail, and
+//! impulse responses on scenes simplified by them, beside exact geometry
+//! (see `lod`).
 
 mod bvh_bench;
 mod ccd;
@@ -89,7 +90,9 @@ enum Command {
     /// selective and full ray tracing side by side, wrong pixels counted.
     Shadows(shadows::Args),
     /// Ray queries with cones against levels of detail (R-LODs) at growing
-    /// error bounds, beside exact geometry: time and hit displacement.
+    /// error bounds, and impulse responses on scenes simplified by them,
+    /// beside exact geometry: time, hit displacement, energy and parameter
+    /// errors.
     Lod(lod::Args),
 }
 
