@@ -60,7 +60,7 @@ pub fn simplify(mesh: &TriangleMesh, max_error: f32) -> Result<Simplified> {
     }
     let bvh = MeshBvh::build(mesh, &BuildOptions::default());
     let lods = LodTree::fit(&bvh);
-    Ok(cut(mesh, &bvh, &lods, max_error))
+    cut(mesh, &bvh, &lods, max_error)
 }
 
 /// `scene` with every object [simplified](simplify) in its own frame, each
@@ -93,13 +93,13 @@ pub fn simplify_scene(scene: &Scene, max_error: f32) -> Result<(Scene, usize)> {
 }
 
 /// [`simplify`] with the tree and its planes at hand.
-fn cut(mesh: &TriangleMesh, bvh: &MeshBvh, lods: &LodTree, max_error: f32) -> Simplified {
+fn cut(mesh: &TriangleMesh, bvh: &MeshBvh, lods: &LodTree, max_error: f32) -> Result<Simplified> {
     if !(max_error > lods.least_error) || mesh.triangle_count() == 0 {
-        return Simplified {
+        return Ok(Simplified {
             mesh: mesh.clone(),
             origin: (0..mesh.triangle_count() as u32).collect(),
             polygons: 0,
-        };
+        });
     }
     let tree = bvh.wide();
     let mut kept = Vec::new();
@@ -147,12 +147,13 @@ fn cut(mesh: &TriangleMesh, bvh: &MeshBvh, lods: &LodTree, max_error: f32) -> Si
     triangles.extend(out.triangles.iter().map(|t| t.map(|v| v + base)));
     let mut origin = kept;
     origin.extend(&out.origin);
-    Simplified {
-        mesh: TriangleMesh::new(positions, triangles)
-            .expect("kept triangles and finite hull corners make a valid mesh"),
+    // A rectangle reaches past its node's corners by up to the node's
+    // size: near the coordinate limit that is refused like any vertex.
+    Ok(Simplified {
+        mesh: TriangleMesh::new(positions, triangles)?,
         origin,
         polygons: out.count,
-    }
+    })
 }
 
 /// A node whose corners all lie this close to its plane, relative to its
@@ -357,41 +358,38 @@ mod tests {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// A sphere (every node curved) at three bounds: fewer triangles
-    /// as the bound grows, every original corner within the bound of the
-    /// simplified surface, and every new corner within three bounds of an
-    /// original one (a node's rectangle spans at most its diameter).
+    /// A sphere (every node curved) at three bounds and three scales:
+    /// fewer triangles as the bound grows, every original corner within
+    /// the bound of the simplified surface, every triangle wound outwards,
+    /// and every new corner within three bounds of an original one (a
+    /// node's rectangle spans at most its diameter).
     #[test]
     fn every_corner_stays_within_the_bound() {
-        let sphere = shapes::icosphere(2.0, 4);
-        let mut last = sphere.triangle_count();
-        for bound in [0.3f32, 0.6, 1.2] {
-            let s = simplify(&sphere, bound).unwrap();
-            assert!(s.polygons > 0, "bound {bound}: nothing simplified");
-            assert!(s.mesh.triangle_count() < last, "bound {bound}");
-            last = s.mesh.triangle_count();
-            for p in sphere.positions() {
-                let d = distance_to(&s.mesh, p.as_dvec3());
-                assert!(
-                    d <= f64::from(bound),
-                    "bound {bound}: corner {p} is {d} away"
-                );
-            }
-            // Wound outwards, the rectangles as the sphere's own triangles.
-            for t in 0..s.mesh.triangle_count() {
-                let [a, b, c] = corners64(&s.mesh, t);
-                assert!(
-                    (b - a).cross(c - a).dot(a + b + c) > 0.0,
-                    "bound {bound}: {t}"
-                );
-            }
-            for p in s.mesh.positions() {
-                let nearest = sphere
-                    .positions()
-                    .iter()
-                    .map(|q| q.as_dvec3().distance(p.as_dvec3()))
-                    .fold(f64::INFINITY, f64::min);
-                assert!(nearest <= 3.0 * f64::from(bound), "bound {bound}: {p}");
+        for scale in [1e-3f32, 1.0, 1e4] {
+            let sphere = shapes::icosphere(2.0 * scale, 4);
+            let mut last = sphere.triangle_count();
+            for bound in [0.3f32, 0.6, 1.2].map(|b| b * scale) {
+                let s = simplify(&sphere, bound).unwrap();
+                let at = format!("scale {scale}, bound {bound}");
+                assert!(s.polygons > 0, "{at}: nothing simplified");
+                assert!(s.mesh.triangle_count() < last, "{at}");
+                last = s.mesh.triangle_count();
+                for p in sphere.positions() {
+                    let d = distance_to(&s.mesh, p.as_dvec3());
+                    assert!(d <= f64::from(bound), "{at}: corner {p} is {d} away");
+                }
+                for t in 0..s.mesh.triangle_count() {
+                    let [a, b, c] = corners64(&s.mesh, t);
+                    assert!((b - a).cross(c - a).dot(a + b + c) > 0.0, "{at}: {t}");
+                }
+                for p in s.mesh.positions() {
+                    let nearest = sphere
+                        .positions()
+                        .iter()
+                        .map(|q| q.as_dvec3().distance(p.as_dvec3()))
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(nearest <= 3.0 * f64::from(bound), "{at}: {p}");
+                }
             }
         }
     }
