@@ -94,7 +94,7 @@ pub fn simplify_scene(scene: &Scene, max_error: f32) -> Result<(Scene, usize)> {
 
 /// [`simplify`] with the tree and its planes at hand.
 fn cut(mesh: &TriangleMesh, bvh: &MeshBvh, lods: &LodTree, max_error: f32) -> Result<Simplified> {
-    if !(max_error > lods.least_error) || mesh.triangle_count() == 0 {
+    if max_error <= lods.least_error || mesh.triangle_count() == 0 {
         return Ok(Simplified {
             mesh: mesh.clone(),
             origin: (0..mesh.triangle_count() as u32).collect(),
