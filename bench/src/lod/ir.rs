@@ -18,7 +18,7 @@ use frusta_engine::bvh::lod::simplify_scene;
 use frusta_engine::scene::{Scene, OCTAVE_BANDS_HZ};
 use glam::DVec3;
 
-use super::{ms_since, Run};
+use super::{ms_since, peak_rss_mb, Run};
 use crate::jnd::{self, jnd};
 use crate::stats::median;
 
@@ -49,12 +49,13 @@ pub fn runs(
     bounds: &[f32],
     setup: &IrSetup,
 ) -> Result<Vec<Run>, String> {
+    let start = Instant::now();
     let mut geometries = vec![Geometry {
         bound: 0.0,
         scene: AcousticScene::new(scene),
         triangles: scene.triangle_count(),
         polygons: 0,
-        setup_ms: 0.0,
+        setup_ms: ms_since(start),
     }];
     for &bound in bounds {
         let start = Instant::now();
@@ -152,6 +153,7 @@ pub fn runs(
             row.triangles = g.triangles;
             row.polygons = Some(g.polygons);
             row.setup_ms = Some(g.setup_ms);
+            row.exact_setup_ms = Some(geometries[0].setup_ms);
             row.tail_noise_db = noise.map(|(db, _)| db);
             row.tail_noise_jnd = noise.and_then(|(_, jnd)| jnd);
             if let Some((times, response)) = result {
@@ -170,6 +172,11 @@ pub fn runs(
         if let Some((_, r)) = &exact {
             eprintln!("{name} exact, {cells:?}: {} frusta", r.stats.frusta);
         }
+    }
+    // Every run of this hall has ended: its geometries are all built.
+    let peak = peak_rss_mb();
+    for row in &mut rows {
+        row.peak_rss_mb = peak;
     }
     Ok(rows)
 }

@@ -121,6 +121,11 @@ struct Run {
     /// own noise, below which a difference says nothing of the bound.
     tail_noise_db: Option<f64>,
     tail_noise_jnd: Option<f64>,
+    /// Building exact geometry's acoustic scene, and the process's peak
+    /// resident memory once the hall's impulse responses have all run
+    /// (including the scenes run before).
+    exact_setup_ms: Option<f64>,
+    peak_rss_mb: Option<f64>,
 }
 
 impl Run {
@@ -148,6 +153,8 @@ impl Run {
             tail_ms: None,
             tail_noise_db: None,
             tail_noise_jnd: None,
+            exact_setup_ms: None,
+            peak_rss_mb: None,
         }
     }
 }
@@ -380,7 +387,7 @@ fn ms_since(start: Instant) -> f64 {
 }
 
 /// VmHWM of this process, MB (Linux).
-fn peak_rss_mb() -> Option<f64> {
+pub(super) fn peak_rss_mb() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
@@ -483,15 +490,18 @@ fn table(runs: &[Run], scenes: &[Setup], args: &Args, cone: Cone) -> String {
                 fmt(r.parameter_error_jnd_max, 2),
                 name(r.reference_cells),
             );
-            noise.push((r.scene.clone(), r.tail_noise_db, r.tail_noise_jnd));
+            noise.push(r);
         }
-        noise.dedup_by(|a, b| a.0 == b.0);
-        for (scene, db, jnd) in noise {
+        noise.dedup_by(|a, b| a.scene == b.scene);
+        for r in noise {
             out += &format!(
-                "tail noise in {scene} (exact geometry, sampled cells, the tail's next seed against \
-                 its first): {} dB, {} JND\n",
-                fmt(db, 2),
-                fmt(jnd, 2)
+                "{}: exact geometry built in {} ms; tail noise (exact geometry, sampled cells, the \
+                 tail's next seed against its first) {} dB, {} JND; peak RSS {} MB\n",
+                r.scene,
+                fmt(r.exact_setup_ms, 0),
+                fmt(r.tail_noise_db, 2),
+                fmt(r.tail_noise_jnd, 2),
+                fmt(r.peak_rss_mb, 0),
             );
         }
     }
