@@ -1,7 +1,8 @@
 //! `frusta-bench lod --json --save DIR` runs end to end on the 10k hall,
-//! prints the documented fields (impulse-response fields `null`), uses
-//! planes at a coarse bound and none at bound 0, and saves the run with
-//! its provenance.
+//! prints the documented fields (for rays, the impulse-response fields
+//! `null`; for impulse responses, the rays' fields), uses planes at a
+//! coarse bound and none at bound 0, and saves the run with its
+//! provenance.
 
 mod common;
 
@@ -19,6 +20,14 @@ fn lod_json_has_the_documented_fields() {
         "0",
         "--bound",
         "2",
+        "--ir-hall",
+        "10k",
+        "--ir-bound",
+        "2",
+        "--order",
+        "1",
+        "--sampling",
+        "2",
         "--rounds",
         "1",
         "--json",
@@ -30,7 +39,8 @@ fn lod_json_has_the_documented_fields() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("lod.json")).unwrap()).unwrap();
     assert_eq!(doc["runs"], saved["runs"]);
     assert_eq!(saved["commit"].as_str().unwrap().len(), 40);
-    let runs = doc["runs"].as_array().unwrap();
+    let all = doc["runs"].as_array().unwrap();
+    let (runs, responses): (Vec<_>, Vec<_>) = all.iter().partition(|r| r["query"] == "rays");
     assert_eq!(runs.len(), 2);
     for (r, bound) in runs.iter().zip([0.0, 2.0]) {
         assert_eq!(r["scene"], "hall-10k");
@@ -48,6 +58,22 @@ fn lod_json_has_the_documented_fields() {
     assert_eq!(runs[0]["plane_hits"], 0);
     assert_eq!(runs[0]["hit_displacement_max"].as_f64(), Some(0.0));
     assert!(runs[1]["plane_hits"].as_u64().unwrap() > 0, "{}", runs[1]);
+    // One impulse-response row per cell assignment at 2 m, simplified
+    // (fewer triangles than the hall's 9972), every band's energy compared.
+    assert_eq!(responses.len(), 2);
+    for (r, cells) in responses.iter().zip(["sampled", "conservative"]) {
+        assert_eq!(r["query"], "ir");
+        assert_eq!(r["cells"], cells);
+        assert_eq!(r["lod_bound"].as_f64(), Some(2.0));
+        for field in ["ms", "exact_ms", "energy_error_db_max"] {
+            assert!(r[field].as_f64().unwrap() >= 0.0, "{field}: {r}");
+        }
+        assert!(r["frusta"].as_u64().unwrap() > 0, "{r}");
+        assert!(r["polygons"].as_u64().unwrap() > 0, "{r}");
+        assert!(r["triangles"].as_u64().unwrap() < 9972, "{r}");
+        assert!(r["hit_displacement_max"].is_null(), "{r}");
+        assert!(r["tail_noise_db"].as_f64().is_some(), "{r}");
+    }
     let scenes = doc["scenes"].as_array().unwrap();
     assert!(scenes[0]["lod_bytes"].as_u64().unwrap() > 0);
     std::fs::remove_dir_all(&dir).unwrap();
