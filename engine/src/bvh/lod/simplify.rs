@@ -310,51 +310,20 @@ fn convex_hull(points: &mut [DVec2]) -> Vec<DVec2> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::collision::closest_on_triangle;
     use crate::geometry::shapes;
     use crate::scene::Material;
-
-    /// Distance from `p` to triangle `abc` in f64, by cases (Ericson,
-    /// Real-Time Collision Detection 5.1.5): the reference the
-    /// simplification is checked against.
-    fn point_triangle(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
-        let (ab, ac, ap) = (b - a, c - a, p - a);
-        let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-        if d1 <= 0.0 && d2 <= 0.0 {
-            return p.distance(a);
-        }
-        let bp = p - b;
-        let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-        if d3 >= 0.0 && d4 <= d3 {
-            return p.distance(b);
-        }
-        let vc = d1 * d4 - d3 * d2;
-        if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-            return p.distance(a + ab * (d1 / (d1 - d3)));
-        }
-        let cp = p - c;
-        let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-        if d6 >= 0.0 && d5 <= d6 {
-            return p.distance(c);
-        }
-        let vb = d5 * d2 - d1 * d6;
-        if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-            return p.distance(a + ac * (d2 / (d2 - d6)));
-        }
-        let va = d3 * d6 - d5 * d4;
-        if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
-            return p.distance(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
-        }
-        let denom = 1.0 / (va + vb + vc);
-        p.distance(a + ab * (vb * denom) + ac * (vc * denom))
-    }
 
     fn corners64(mesh: &TriangleMesh, t: usize) -> [DVec3; 3] {
         mesh.corners(t).map(|p| Vec3::from(p).as_dvec3())
     }
 
+    /// The distance from `p` to `mesh` in f64, triangle by triangle
+    /// (Ericson's closest point, from collision): the reference the
+    /// simplification is checked against.
     fn distance_to(mesh: &TriangleMesh, p: DVec3) -> f64 {
         (0..mesh.triangle_count())
-            .map(|t| point_triangle(p, corners64(mesh, t)))
+            .map(|t| p.distance(closest_on_triangle(p, corners64(mesh, t))))
             .fold(f64::INFINITY, f64::min)
     }
 
