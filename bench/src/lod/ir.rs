@@ -243,3 +243,50 @@ fn parameter_error_jnd(r: &Response, reference: &Response) -> Option<f64> {
     }
     worst
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use frusta_engine::acoustics::simulate;
+    use frusta_engine::scene::generate::BoxRoom;
+    use frusta_engine::scene::Material;
+    use glam::Vec3;
+
+    /// A response against itself differs by nothing; with every pressure
+    /// doubled (paths and tail alike) every band is 20 log10 2 dB louder.
+    #[test]
+    fn errors_of_a_response_against_itself_and_twice_as_loud() {
+        let room = BoxRoom::new(Vec3::ZERO, Vec3::new(6.0, 4.0, 3.0))
+            .generate()
+            .unwrap();
+        let scene =
+            Scene::single_object("box", room, Material::uniform("w", 0.2).unwrap()).unwrap();
+        let options = SimulationOptions {
+            max_order: 2,
+            tail: Tail::Stochastic(frusta_engine::acoustics::TailOptions {
+                rays: 512,
+                ..Default::default()
+            }),
+            ..SimulationOptions::default()
+        };
+        let r = simulate(
+            &AcousticScene::new(&scene),
+            &[Vec3::new(1.0, 1.0, 1.5)],
+            &[Vec3::new(4.5, 3.0, 1.2)],
+            &options,
+        )
+        .unwrap()
+        .remove(0);
+        assert_eq!(energy_error_db(&r, &r), 0.0);
+        assert_eq!(parameter_error_jnd(&r, &r), Some(0.0));
+        let mut louder = r.clone();
+        for p in &mut louder.paths {
+            p.pressure_gain.iter_mut().for_each(|g| *g *= 2.0);
+        }
+        for bin in &mut louder.late_energy.as_mut().unwrap().bins {
+            bin.iter_mut().for_each(|e| *e *= 4.0);
+        }
+        let db = energy_error_db(&louder, &r);
+        assert!((db - 20.0 * 2f64.log10()).abs() < 1e-5, "{db}");
+    }
+}

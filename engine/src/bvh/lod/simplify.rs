@@ -10,10 +10,9 @@
 //! mesh is a plain mesh, so every exact method runs on it unchanged and
 //! is exact for it. One rectangle per node, not the fan of its hull:
 //! rounded to f32, a fan's slivers each get a slightly different plane,
-//! and a plane group each (hall-200k at 2 m: 5086 groups against 109, and
-//! seven times the frusta). Gaps narrower than a node close; neighbouring
-//! rectangles share no vertices, and between them are the cracks and
-//! overlaps of the R-LOD paper, at most the bound wide.
+//! so a plane group each, and frusta multiply. Gaps narrower than a node
+//! close; neighbouring rectangles share no vertices, and between them are
+//! the cracks and overlaps of the R-LOD paper, at most the bound wide.
 //!
 //! ```
 //! use frusta_engine::bvh::lod::simplify;
