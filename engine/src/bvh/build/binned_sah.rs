@@ -10,6 +10,10 @@ use crate::geometry::Aabb;
 
 pub(super) const MAX_BINS: usize = 64;
 
+/// How many times `parallel_threshold` a range must hold for its own
+/// binning to run on rayon.
+const PARALLEL_BINNING: usize = 16;
+
 #[derive(Clone, Copy)]
 pub(super) struct Bin {
     bounds: Aabb,
@@ -37,17 +41,29 @@ struct Binning {
 }
 
 impl Binning {
+    /// The bin of `x`, the centroid's offset from the origin scaled to bin
+    /// widths. Clamped in floating point first (NaN, negative and past the
+    /// last bin land where a saturating cast would put them), so the
+    /// conversion is one truncating instruction: the checked `as usize`
+    /// was a sixth of a build's instructions.
+    #[inline(always)]
+    fn index(&self, x: f32) -> usize {
+        let x = x.max(0.0).min(self.last as f32);
+        // SAFETY: `x` is finite and within `0..=last`.
+        unsafe { x.to_int_unchecked::<u32>() as usize }
+    }
+
     #[inline(always)]
     fn bin(&self, c: Vec3A, axis: usize) -> usize {
-        let b = ((c[axis] - self.origin[axis]) * self.scale[axis]) as usize;
-        b.min(self.last)
+        self.index((c[axis] - self.origin[axis]) * self.scale[axis])
     }
 
     /// Adds a primitive to its bin on each axis of `bins` (axis-major).
     #[inline(always)]
     fn add(&self, bins: &mut [Bin], stride: usize, c: Vec3A, b: Aabb) {
-        for axis in 0..3 {
-            let bin = &mut bins[axis * stride + self.bin(c, axis)];
+        let scaled = ((c - self.origin) * self.scale).to_array();
+        for (axis, x) in scaled.into_iter().enumerate() {
+            let bin = &mut bins[axis * stride + self.index(x)];
             bin.bounds = bin.bounds.union(b);
             bin.count += 1;
         }
@@ -56,7 +72,10 @@ impl Binning {
 
 pub(super) fn split(ctx: &Context, prims: &mut [u32], scratch: &mut Scratch) -> Split {
     let n = prims.len();
-    let parallel = n >= ctx.options.parallel_threshold;
+    // Subtrees are built in parallel from `parallel_threshold` down; the
+    // bins of one range only where a range is much larger, since each
+    // chunk's bins are allocated and merged.
+    let parallel = n >= PARALLEL_BINNING * ctx.options.parallel_threshold;
     let (bounds, centroid_bounds) = range_bounds(ctx, prims, parallel);
     let extent = centroid_bounds.extent();
     let parent_area = bounds.half_area();
@@ -64,8 +83,9 @@ pub(super) fn split(ctx: &Context, prims: &mut [u32], scratch: &mut Scratch) -> 
         return Split::Leaf;
     }
     // Few primitives need few bins; clearing and sweeping them is the
-    // fixed cost of a split.
-    let bins = ctx.options.bins.min(n.max(4));
+    // fixed cost of a split, and most splits are of small ranges. Embree's
+    // rule, 4 and one more per 20 primitives.
+    let bins = ctx.options.bins.min(4 + n / 20);
     let binning = Binning {
         origin: centroid_bounds.min,
         // Axes without extent get scale 0: one bin, never a candidate.

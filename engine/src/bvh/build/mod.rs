@@ -39,7 +39,8 @@ pub struct BuildOptions {
     pub method: BuildMethod,
     /// Leaves never hold more primitives than this (1..=255).
     pub max_leaf_size: u32,
-    /// SAH bins per axis (2..=64).
+    /// SAH bins per axis (2..=64) of large ranges; a range of `n`
+    /// primitives uses at most `4 + n / 20`, as Embree does.
     pub bins: usize,
     /// Cost of visiting an inner node relative to one primitive test.
     pub traversal_cost: f32,
@@ -56,7 +57,7 @@ impl Default for BuildOptions {
             max_leaf_size: 8,
             bins: 32,
             traversal_cost: 1.0,
-            parallel_threshold: 8 * 1024,
+            parallel_threshold: 1024,
             hybrid_sah_size: 4 * 1024,
         }
     }
