@@ -111,11 +111,13 @@ impl CompactBvh4 {
             .zip(boxes.par_iter())
             .for_each(|(n, b)| n.set_boxes(b));
         // Both sides rounded alike, so an unchanged tree measures 0.
-        let now = self
+        let now: Vec<[f32; 5]> = self
             .ratios(&boxes, &leaf_area_sum)
-            .map(|r| r.map(|x| from_bfloat16(bfloat16(x))));
+            .map(|r| r.map(|x| from_bfloat16(bfloat16(x))))
+            .collect();
         let built: Vec<[f32; 5]> = self.nodes.iter().map(CompactNode4::build_ratios).collect();
-        wide::refit::degradation(&built, now, |i, s| self.nodes[i].count(s) > 1)
+        let nodes = &self.nodes;
+        wide::refit::degradation(&built, |i| now[i], |i, s| nodes[i].count(s) > 1)
     }
 
     /// Records the area ratios of `leaf_bounds` as the build-time reference.

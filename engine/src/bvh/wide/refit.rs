@@ -84,11 +84,13 @@ impl Bvh4 {
     }
 
     /// The rebuild heuristic on the current boxes (see [`degradation`]).
-    pub(crate) fn degradation(&self, leaf_area_sum: impl Fn(u32, u32) -> f32) -> f32 {
-        let now = self.nodes.iter().map(|n| Self::ratios(n, &leaf_area_sum));
-        degradation(&self.build_ratios, now, |i, s| {
-            self.nodes[i].is_leaf_slot(s) && self.nodes[i].count[s] > 1
-        })
+    pub(crate) fn degradation(&self, leaf_area_sum: impl Fn(u32, u32) -> f32 + Sync) -> f32 {
+        let nodes = &self.nodes;
+        degradation(
+            &self.build_ratios,
+            |i| Self::ratios(&nodes[i], &leaf_area_sum),
+            |i, s| nodes[i].is_leaf_slot(s) && nodes[i].count[s] > 1,
+        )
     }
 }
 
@@ -113,24 +115,37 @@ pub(crate) fn node_ratios(
 
 /// The rebuild heuristic (dissertation, section 4.1.5): the mean growth of
 /// the area ratios since the build, over nodes and over the leaf slots
-/// `counted(node, slot)` names (those with several primitives). 0 under
-/// translation; large when neighbours part.
+/// `counted(node, slot)` names (those with several primitives), `now(node)`
+/// giving a node's ratios. 0 under translation; large when neighbours
+/// part. Its leaves' areas take another pass over the triangles, so large
+/// trees measure on rayon.
 pub(crate) fn degradation(
     built: &[[f32; 5]],
-    now: impl Iterator<Item = [f32; 5]>,
-    counted: impl Fn(usize, usize) -> bool,
+    now: impl Fn(usize) -> [f32; 5] + Sync,
+    counted: impl Fn(usize, usize) -> bool + Sync,
 ) -> f32 {
-    let (mut sum, mut count) = (0.0f64, 0usize);
-    for (i, (now, built)) in now.zip(built).enumerate() {
-        sum += (now[0] - built[0]) as f64;
-        count += 1;
+    let growth = |i: usize| {
+        let (now, built) = (now(i), &built[i]);
+        let mut sum = f64::from(now[0] - built[0]);
+        let mut count = 1usize;
         for s in 0..4 {
             if counted(i, s) {
-                sum += (now[s + 1] - built[s + 1]) as f64;
+                sum += f64::from(now[s + 1] - built[s + 1]);
                 count += 1;
             }
         }
-    }
+        (sum, count)
+    };
+    let add = |a: (f64, usize), b: (f64, usize)| (a.0 + b.0, a.1 + b.1);
+    let (sum, count) = if built.len() >= PARALLEL_NODES {
+        (0..built.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .map(growth)
+            .reduce(|| (0.0, 0), add)
+    } else {
+        (0..built.len()).map(growth).fold((0.0, 0), add)
+    };
     if count == 0 {
         0.0
     } else {
