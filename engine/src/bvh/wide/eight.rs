@@ -57,9 +57,15 @@ impl Node8 {
         }
     }
 
-    /// The union of the eight slots: this node's own box.
+    /// The union of the eight slots, plane by plane: this node's own box.
     pub fn aabb(&self) -> Aabb {
-        (0..8).fold(Aabb::EMPTY, |b, s| b.union(self.slot_aabb(s)))
+        let p = &self.planes;
+        let min = |row: &[f32; 8]| row.iter().fold(f32::INFINITY, |m, &x| m.min(x));
+        let max = |row: &[f32; 8]| row.iter().fold(f32::NEG_INFINITY, |m, &x| m.max(x));
+        Aabb::new(
+            glam::Vec3A::new(min(&p[0]), min(&p[1]), min(&p[2])),
+            glam::Vec3A::new(max(&p[3]), max(&p[4]), max(&p[5])),
+        )
     }
 
     #[inline(always)]

@@ -64,18 +64,33 @@ impl Boxes4 {
         unsafe { &*(self as *const Self).cast::<[Vec4; 6]>() }
     }
 
+    /// Slots are read and written through arrays: glam indexes a `Vec4`
+    /// by a jump table, a branch per access that a refit's passes do not
+    /// predict.
     pub fn slot_aabb(&self, slot: usize) -> Aabb {
+        let (lo, hi) = (self.lo.map(|r| r.to_array()), self.hi.map(|r| r.to_array()));
         Aabb::new(
-            glam::Vec3A::new(self.lo[0][slot], self.lo[1][slot], self.lo[2][slot]),
-            glam::Vec3A::new(self.hi[0][slot], self.hi[1][slot], self.hi[2][slot]),
+            glam::Vec3A::new(lo[0][slot], lo[1][slot], lo[2][slot]),
+            glam::Vec3A::new(hi[0][slot], hi[1][slot], hi[2][slot]),
         )
     }
 
     pub(crate) fn set_slot_aabb(&mut self, slot: usize, b: Aabb) {
+        let (min, max) = (b.min.to_array(), b.max.to_array());
         for axis in 0..3 {
-            self.lo[axis][slot] = b.min[axis];
-            self.hi[axis][slot] = b.max[axis];
+            let (lo, hi): (&mut [f32; 4], &mut [f32; 4]) =
+                (self.lo[axis].as_mut(), self.hi[axis].as_mut());
+            lo[slot] = min[axis];
+            hi[slot] = max[axis];
         }
+    }
+
+    /// The union of the four slots, plane by plane.
+    pub fn union(&self) -> Aabb {
+        Aabb::new(
+            glam::Vec3A::from_array(self.lo.map(Vec4::min_element)),
+            glam::Vec3A::from_array(self.hi.map(Vec4::max_element)),
+        )
     }
 }
 
@@ -96,7 +111,7 @@ impl Node4 {
 
     /// The union of the four slots: this node's own box.
     pub fn aabb(&self) -> Aabb {
-        (0..4).fold(Aabb::EMPTY, |b, s| b.union(self.slot_aabb(s)))
+        self.boxes.union()
     }
 
     pub fn is_leaf_slot(&self, slot: usize) -> bool {
