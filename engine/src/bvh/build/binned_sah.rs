@@ -44,7 +44,7 @@ impl Binning {
     /// The bin of `x`, the centroid's offset from the origin scaled to bin
     /// widths. Clamped in floating point first (NaN, negative and past the
     /// last bin land where a saturating cast would put them), so the
-    /// conversion is one truncating instruction: the checked `as usize`
+    /// conversion is one truncating instruction: the saturating `as usize`
     /// was a sixth of a build's instructions.
     #[inline(always)]
     fn index(&self, x: f32) -> usize {
@@ -75,7 +75,7 @@ pub(super) fn split(ctx: &Context, prims: &mut [u32], scratch: &mut Scratch) -> 
     // Subtrees are built in parallel from `parallel_threshold` down; the
     // bins of one range only where a range is much larger, since each
     // chunk's bins are allocated and merged.
-    let parallel = n >= PARALLEL_BINNING * ctx.options.parallel_threshold;
+    let parallel = n / PARALLEL_BINNING >= ctx.options.parallel_threshold;
     let (bounds, centroid_bounds) = range_bounds(ctx, prims, parallel);
     let extent = centroid_bounds.extent();
     let parent_area = bounds.half_area();

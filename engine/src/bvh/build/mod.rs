@@ -44,7 +44,9 @@ pub struct BuildOptions {
     pub bins: usize,
     /// Cost of visiting an inner node relative to one primitive test.
     pub traversal_cost: f32,
-    /// Ranges at least this large are built in parallel.
+    /// Ranges at least this large are built in parallel (their two halves
+    /// on rayon, and the centroids and Morton sort of inputs this large);
+    /// a range's own binning from 16 times this.
     pub parallel_threshold: usize,
     /// Hybrid builder: ranges at most this large switch to SAH.
     pub hybrid_sah_size: usize,

@@ -64,10 +64,9 @@ impl Boxes4 {
         unsafe { &*(self as *const Self).cast::<[Vec4; 6]>() }
     }
 
-    /// Slots are read and written through arrays: glam indexes a `Vec4`
-    /// by a jump table, a branch per access that a refit's passes do not
-    /// predict.
     pub fn slot_aabb(&self, slot: usize) -> Aabb {
+        // Through arrays: glam indexes a `Vec4` by a jump table, a branch
+        // per access that a refit's passes do not predict.
         let (lo, hi) = (self.lo.map(|r| r.to_array()), self.hi.map(|r| r.to_array()));
         Aabb::new(
             glam::Vec3A::new(lo[0][slot], lo[1][slot], lo[2][slot]),
@@ -76,6 +75,7 @@ impl Boxes4 {
     }
 
     pub(crate) fn set_slot_aabb(&mut self, slot: usize, b: Aabb) {
+        // Through arrays, as `slot_aabb`.
         let (min, max) = (b.min.to_array(), b.max.to_array());
         for axis in 0..3 {
             let (lo, hi): (&mut [f32; 4], &mut [f32; 4]) =

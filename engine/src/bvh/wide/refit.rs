@@ -12,8 +12,14 @@ use rayon::prelude::*;
 use super::{Bvh4, Node4, WideNode};
 use crate::geometry::Aabb;
 
-/// Below this many nodes the leaf pass runs on one thread.
+/// Below this many nodes a pass over them (the refit's leaves, the
+/// degradation) runs on one thread.
 const PARALLEL_NODES: usize = 4 * 1024;
+
+/// Nodes per partial sum of the degradation: fixed chunks summed in order,
+/// so its rounding, and the rebuild decision it drives, do not depend on
+/// how rayon splits the work.
+const DEGRADATION_CHUNK: usize = 1024;
 
 /// Recomputes every box of a wide tree: leaf slots from
 /// `leaf_bounds(first, count)` (on rayon: the triangles are most of the
@@ -117,8 +123,8 @@ pub(crate) fn node_ratios(
 /// the area ratios since the build, over nodes and over the leaf slots
 /// `counted(node, slot)` names (those with several primitives), `now(node)`
 /// giving a node's ratios. 0 under translation; large when neighbours
-/// part. Its leaves' areas take another pass over the triangles, so large
-/// trees measure on rayon.
+/// part. The plain tree's leaf areas are another pass over the triangles
+/// inside `now`, so large trees measure on rayon.
 pub(crate) fn degradation(
     built: &[[f32; 5]],
     now: impl Fn(usize) -> [f32; 5] + Sync,
@@ -137,18 +143,45 @@ pub(crate) fn degradation(
         (sum, count)
     };
     let add = |a: (f64, usize), b: (f64, usize)| (a.0 + b.0, a.1 + b.1);
-    let (sum, count) = if built.len() >= PARALLEL_NODES {
-        (0..built.len())
-            .into_par_iter()
-            .with_min_len(256)
-            .map(growth)
-            .reduce(|| (0.0, 0), add)
-    } else {
-        (0..built.len()).map(growth).fold((0.0, 0), add)
+    let chunk = |c: usize| {
+        let end = ((c + 1) * DEGRADATION_CHUNK).min(built.len());
+        (c * DEGRADATION_CHUNK..end).map(growth).fold((0.0, 0), add)
     };
+    let chunks = built.len().div_ceil(DEGRADATION_CHUNK);
+    let partial: Vec<(f64, usize)> = if built.len() >= PARALLEL_NODES {
+        (0..chunks).into_par_iter().map(chunk).collect()
+    } else {
+        (0..chunks).map(chunk).collect()
+    };
+    let (sum, count) = partial.into_iter().fold((0.0, 0), add);
     if count == 0 {
         0.0
     } else {
         (sum / count as f64) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every node grew by 0.5, and every other node's first slot, counted,
+    /// by 2: the mean over 1.5 n terms is exactly (0.5 n + 2 n/2) / 1.5 n = 1.
+    fn half_counted(n: usize) -> f32 {
+        let built = vec![[1.0; 5]; n];
+        degradation(
+            &built,
+            |_| [1.5, 3.0, 1.0, 1.0, 1.0],
+            |i, s| s == 0 && i % 2 == 0,
+        )
+    }
+
+    #[test]
+    fn degradation_is_the_mean_growth_on_one_thread_and_on_rayon() {
+        assert_eq!(half_counted(100), 1.0);
+        let large = 3 * PARALLEL_NODES / 2;
+        assert_eq!(large % 2, 0);
+        assert_eq!(half_counted(large), 1.0);
+        assert_eq!(half_counted(0), 0.0);
     }
 }
