@@ -212,3 +212,42 @@ fn partition(items: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
     }
     i
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bins_are_those_a_saturating_cast_gives_whatever_the_input() {
+        let binning = Binning {
+            origin: Vec3A::ZERO,
+            scale: Vec3A::ONE,
+            last: 31,
+        };
+        let inputs = [
+            f32::NAN,
+            f32::NEG_INFINITY,
+            -1e30,
+            -1.5,
+            -0.5,
+            -0.0,
+            0.0,
+            1e-45,
+            0.999,
+            1.0,
+            17.5,
+            30.999,
+            31.0,
+            31.5,
+            1e30,
+            f32::MAX,
+            f32::INFINITY,
+        ];
+        for x in inputs {
+            // Rust's `as` saturates (NaN to 0): the conversion the clamp
+            // stands in for.
+            let expected = (x as usize).min(31);
+            assert_eq!(binning.index(x), expected, "{x}");
+        }
+    }
+}

@@ -148,3 +148,42 @@ impl super::WideNode for Node8 {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::WideNode;
+    use super::*;
+    use glam::Vec3A;
+
+    /// A node's box is the union of its slots' boxes, empty slots (the
+    /// padding's infinite planes) and far-apart slots alike, whichever
+    /// slot holds the extremes.
+    #[test]
+    fn a_node_box_is_the_union_of_its_slots() {
+        let boxes = [
+            Aabb::new(Vec3A::new(-3.0, 0.5, 2.0), Vec3A::new(-1.0, 4.0, 2.5)),
+            Aabb::new(Vec3A::new(1e6, -2.0, -7.0), Vec3A::new(2e6, -1.0, 9.0)),
+            Aabb::new(Vec3A::new(0.0, 0.0, 0.0), Vec3A::new(0.0, 0.0, 0.0)),
+        ];
+        let expected = Aabb::new(Vec3A::new(-3.0, -2.0, -7.0), Vec3A::new(2e6, 4.0, 9.0));
+        for (first, turn) in (0..6).flat_map(|f| (0..3).map(move |t| (f, t))) {
+            let mut boxes = boxes;
+            boxes.rotate_left(turn);
+            let mut n8 = Node8::EMPTY;
+            let mut n4 = super::super::EMPTY_NODE;
+            for (k, b) in boxes.iter().enumerate() {
+                n8.set_slot(first + k, *b, 0, 1);
+                if first + k < 4 {
+                    n4.set_slot(first + k, *b, 0, 1);
+                }
+            }
+            assert_eq!(n8.aabb(), expected, "slots from {first}, turned {turn}");
+            assert_eq!(n8.slot_aabb(first + 1), boxes[1]);
+            if first == 1 {
+                assert_eq!(n4.aabb(), expected);
+                assert_eq!(n4.slot_aabb(2), boxes[1]);
+            }
+        }
+        assert!(Node8::EMPTY.aabb().is_empty());
+    }
+}
