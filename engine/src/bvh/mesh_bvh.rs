@@ -156,19 +156,25 @@ impl MeshBvh {
             .with_min_len(4096)
             .zip(ids.par_iter())
             .for_each(|(tri, &t)| *tri = mesh.corners(t as usize));
-        let triangles = &self.triangles;
-        let leaf_bounds = |first: u32, count: u32| {
-            triangles[first as usize..(first + count) as usize]
+        let leaf = |first: u32, count: u32| -> &[[Vec3A; 3]] {
+            &self.triangles[first as usize..(first + count) as usize]
+        };
+        // The box and the area sum in one read of the leaf's triangles.
+        let degradation = self.bvh.refit_measured(|first, count| {
+            leaf(first, count)
                 .iter()
-                .fold(Aabb::EMPTY, |b, [p, q, r]| {
+                .fold((Aabb::EMPTY, 0.0), |(b, area), [p, q, r]| {
+                    let t = Aabb::of_triangle(*p, *q, *r);
+                    (b.union(t), area + t.half_area())
+                })
+        });
+        if let Some(bvh8) = &mut self.bvh8 {
+            bvh8.refit(|first, count| {
+                leaf(first, count).iter().fold(Aabb::EMPTY, |b, [p, q, r]| {
                     b.union(Aabb::of_triangle(*p, *q, *r))
                 })
-        };
-        self.bvh.refit(leaf_bounds);
-        if let Some(bvh8) = &mut self.bvh8 {
-            bvh8.refit(leaf_bounds);
+            });
         }
-        let degradation = self.bvh.degradation(|f, c| leaf_area_sum(triangles, f, c));
         RefitReport { degradation }
     }
 
@@ -385,6 +391,118 @@ mod tests {
             eight.refit(&wobbled).unwrap();
             four.refit(&wobbled).unwrap();
             assert_same_hits(&eight, &four, &rays);
+        }
+    }
+
+    /// Half the area of the box of `corners`, in `f64`.
+    fn half_area_f64(corners: impl Iterator<Item = Vec3A>) -> f64 {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in corners {
+            for a in 0..3 {
+                lo[a] = lo[a].min(f64::from(p[a]));
+                hi[a] = hi[a].max(f64::from(p[a]));
+            }
+        }
+        let e = std::array::from_fn::<f64, 3, _>(|a| (hi[a] - lo[a]).max(0.0));
+        e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+    }
+
+    /// The mesh triangles below slot `slot` of node `node`.
+    fn triangles_below(bvh: &MeshBvh, node: usize, slot: usize, out: &mut Vec<u32>) {
+        let n = &bvh.bvh.nodes[node];
+        if n.is_leaf_slot(slot) {
+            let (first, count) = (n.child[slot] as usize, n.count[slot] as usize);
+            out.extend(&bvh.prim_ids[first..first + count]);
+        } else if n.is_inner_slot(slot) {
+            for s in 0..4 {
+                triangles_below(bvh, n.child[slot] as usize, s, out);
+            }
+        }
+    }
+
+    /// The rebuild heuristic from first principles, in `f64`: per node, the
+    /// area of the box of all its triangles over the sum of its slots'; per
+    /// leaf slot of several triangles, its box's area over the sum of its
+    /// triangles' boxes'; the mean growth of these from `built` to `moved`.
+    /// Only the tree's topology is shared with the code under test.
+    fn degradation_from_scratch(bvh: &MeshBvh, built: &TriangleMesh, moved: &TriangleMesh) -> f64 {
+        let ratio = |area: f64, parts: f64| {
+            if parts > 0.0 {
+                (area / parts).min(1e6)
+            } else if area > 0.0 {
+                1e6
+            } else {
+                1.0
+            }
+        };
+        let corners = |mesh: &TriangleMesh, ts: &[u32]| -> Vec<Vec3A> {
+            ts.iter().flat_map(|&t| mesh.corners(t as usize)).collect()
+        };
+        let (mut sum, mut terms) = (0.0, 0usize);
+        for node in 0..bvh.bvh.nodes.len() {
+            let below: Vec<Vec<u32>> = (0..4)
+                .map(|s| {
+                    let mut ts = Vec::new();
+                    triangles_below(bvh, node, s, &mut ts);
+                    ts
+                })
+                .collect();
+            let ratios = |mesh: &TriangleMesh| {
+                let slots: Vec<f64> = below
+                    .iter()
+                    .map(|ts| half_area_f64(corners(mesh, ts).into_iter()))
+                    .collect();
+                let own = half_area_f64(below.iter().flat_map(|ts| corners(mesh, ts)));
+                let mut r = vec![ratio(own, slots.iter().sum())];
+                for (s, ts) in below.iter().enumerate() {
+                    if bvh.bvh.nodes[node].is_leaf_slot(s) && ts.len() > 1 {
+                        let parts = ts
+                            .iter()
+                            .map(|&t| half_area_f64(mesh.corners(t as usize).into_iter()))
+                            .sum();
+                        r.push(ratio(slots[s], parts));
+                    }
+                }
+                r
+            };
+            for (now, then) in ratios(moved).into_iter().zip(ratios(built)) {
+                sum += now - then;
+                terms += 1;
+            }
+        }
+        sum / terms as f64
+    }
+
+    /// The degradation a refit reports, from boxes and leaf areas computed
+    /// in one pass, is the one recomputed from scratch; on a tree small
+    /// enough to be measured on one thread and on one measured on rayon.
+    #[test]
+    fn refit_degradation_is_the_mean_growth_of_area_ratios_from_scratch() {
+        for levels in [3, 6] {
+            let mesh = shapes::icosphere(1.0, levels);
+            let moved = TriangleMesh::new(
+                mesh.positions()
+                    .iter()
+                    .map(|&p| p * (1.0 + 0.3 * (5.0 * p.x).sin()) + Vec3::Z * p.y * p.y)
+                    .collect(),
+                mesh.triangles().to_vec(),
+            )
+            .unwrap();
+            let mut bvh = MeshBvh::build(&mesh, &BuildOptions::default());
+            let report = bvh.refit(&moved).unwrap();
+            let expected = degradation_from_scratch(&bvh, &mesh, &moved);
+            assert!(
+                expected > 0.05,
+                "the wobble must part neighbours: {expected}"
+            );
+            let error = (f64::from(report.degradation) - expected).abs();
+            assert!(
+                error < 1e-4 * expected,
+                "{} vs {expected}",
+                report.degradation
+            );
+            // And back: every ratio as built.
+            assert!(bvh.refit(&mesh).unwrap().degradation.abs() < 1e-6);
         }
     }
 }

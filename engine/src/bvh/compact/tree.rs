@@ -140,7 +140,8 @@ impl CompactBvh4 {
     ) -> impl Iterator<Item = [f32; 5]> + 'a {
         self.nodes.iter().zip(boxes).map(|(n, b)| {
             let slots = b.map(|b| b.unwrap_or(Aabb::EMPTY));
-            wide::refit::node_ratios(&slots, |s| {
+            let own = slots.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
+            wide::refit::node_ratios(own.half_area(), slots.map(|b| b.half_area()), |s| {
                 (n.count(s) > 1).then(|| leaf_area_sum(n.leaf_first(s), n.count(s)))
             })
         })

@@ -23,24 +23,41 @@ const DEGRADATION_CHUNK: usize = 1024;
 
 /// Recomputes every box of a wide tree: leaf slots from
 /// `leaf_bounds(first, count)` (on rayon: the triangles are most of the
-/// work), then inner slots as the union of their child's slots, in one
-/// reverse sweep (children come after their parent).
+/// work), then inner slots as the union of their child's slots.
 pub(super) fn refit_boxes<N: WideNode>(
     nodes: &mut [N],
     leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync,
 ) {
-    let leaves = |n: &mut N| {
+    refit_leaves(nodes, |n: &mut N| {
         for s in 0..N::WIDTH {
             if let Some((first, count)) = n.leaf(s) {
                 n.set_slot_aabb(s, leaf_bounds(first, count));
             }
         }
-    };
+    });
+    refit_inner(nodes);
+}
+
+/// `leaves(node)` on every node, on rayon for large trees; what each
+/// returned, in node order.
+fn refit_leaves<N: WideNode, T: Send>(
+    nodes: &mut [N],
+    leaves: impl Fn(&mut N) -> T + Sync,
+) -> Vec<T> {
     if nodes.len() >= PARALLEL_NODES {
-        nodes.par_iter_mut().with_min_len(256).for_each(leaves);
+        nodes
+            .par_iter_mut()
+            .with_min_len(256)
+            .map(&leaves)
+            .collect()
     } else {
-        nodes.iter_mut().for_each(leaves);
+        nodes.iter_mut().map(leaves).collect()
     }
+}
+
+/// Inner slots as the union of their child's slots, in one reverse sweep
+/// (children come after their parent).
+fn refit_inner<N: WideNode>(nodes: &mut [N]) {
     for i in (0..nodes.len()).rev() {
         for s in 0..N::WIDTH {
             if let Some(child) = nodes[i].inner(s) {
@@ -72,11 +89,11 @@ impl Bvh4 {
         refit_boxes(&mut self.nodes, leaf_bounds);
     }
 
-    /// Area ratios of a node and of its leaf slots (see [`node_ratios`]).
-    fn ratios(n: &Node4, leaf_area_sum: &impl Fn(u32, u32) -> f32) -> [f32; 5] {
-        let slots = std::array::from_fn(|s| n.slot_aabb(s));
-        node_ratios(&slots, |s| {
-            (n.is_leaf_slot(s) && n.count[s] > 1).then(|| leaf_area_sum(n.child[s], n.count[s]))
+    /// Area ratios of a node and of its leaf slots (see [`node_ratios`]),
+    /// `leaf_area_sum(slot)` the sum of a leaf slot's primitives' box areas.
+    fn ratios(n: &Node4, leaf_area_sum: impl Fn(usize) -> f32) -> [f32; 5] {
+        node_ratios(n.aabb().half_area(), n.boxes.half_areas(), |s| {
+            (n.is_leaf_slot(s) && n.count[s] > 1).then(|| leaf_area_sum(s))
         })
     }
 
@@ -85,35 +102,51 @@ impl Bvh4 {
         self.build_ratios = self
             .nodes
             .iter()
-            .map(|n| Self::ratios(n, &leaf_area_sum))
+            .map(|n| Self::ratios(n, |s| leaf_area_sum(n.child[s], n.count[s])))
             .collect();
     }
 
-    /// The rebuild heuristic on the current boxes (see [`degradation`]).
-    pub(crate) fn degradation(&self, leaf_area_sum: impl Fn(u32, u32) -> f32 + Sync) -> f32 {
+    /// Refits, as [`refit`](Self::refit), from `leaf(first, count)`, a leaf
+    /// slot's box and the sum of its primitives' box areas, and returns the
+    /// rebuild heuristic on the new boxes (see [`degradation`]): one read
+    /// of each leaf's primitives serves both.
+    pub(crate) fn refit_measured(&mut self, leaf: impl Fn(u32, u32) -> (Aabb, f32) + Sync) -> f32 {
+        self.pose = super::next_id();
+        let leaf_areas = refit_leaves(&mut self.nodes, |n: &mut Node4| {
+            let mut areas = [0.0; 4];
+            for s in 0..4 {
+                if n.is_leaf_slot(s) {
+                    let (b, area) = leaf(n.child[s], n.count[s]);
+                    n.set_slot_aabb(s, b);
+                    areas[s] = area;
+                }
+            }
+            areas
+        });
+        refit_inner(&mut self.nodes);
         let nodes = &self.nodes;
         degradation(
             &self.build_ratios,
-            |i| Self::ratios(&nodes[i], &leaf_area_sum),
+            |i| Self::ratios(&nodes[i], |s| leaf_areas[i][s]),
             |i, s| nodes[i].is_leaf_slot(s) && nodes[i].count[s] > 1,
         )
     }
 }
 
 /// Area ratios of a node and of its leaf slots: the node's box over the sum
-/// of its slots' boxes, and a leaf's box over `leaf_parts(slot)`, the sum of
-/// its primitives' box areas (`None`: inner, empty or single, which read 1).
+/// of its slots' boxes (half areas `own` and `slots`), and a leaf's box over
+/// `leaf_parts(slot)`, the sum of its primitives' box areas (`None`: inner,
+/// empty or single, which read 1).
 pub(crate) fn node_ratios(
-    slots: &[Aabb; 4],
+    own: f32,
+    slots: [f32; 4],
     leaf_parts: impl Fn(usize) -> Option<f32>,
 ) -> [f32; 5] {
     let mut r = [1.0; 5];
-    let parts: f32 = slots.iter().map(Aabb::half_area).sum();
-    let own = slots.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
-    r[0] = ratio(own.half_area(), parts);
+    r[0] = ratio(own, slots.iter().sum());
     for s in 0..4 {
         if let Some(parts) = leaf_parts(s) {
-            r[s + 1] = ratio(slots[s].half_area(), parts);
+            r[s + 1] = ratio(slots[s], parts);
         }
     }
     r
