@@ -181,7 +181,7 @@ impl Surface {
     fn of(m: &crate::scene::Material, active: &[bool; BAND_COUNT]) -> Self {
         let scattered = m.scattering.map(f64::from);
         let transmitted = m.transmission.map(f64::from);
-        let p_diffuse = mean(active, &scattered, &active.map(f64::from));
+        let p_diffuse = mean(&scattered, &active.map(f64::from));
         Self {
             reflected: m.absorption.map(|a| 1.0 - f64::from(a)),
             scattered,
@@ -194,16 +194,13 @@ impl Surface {
     }
 }
 
-/// The mean over active bands of `fraction`, weighted by `weights` (0
-/// where they are all 0).
-fn mean(active: &[bool; BAND_COUNT], fraction: &Energy, weights: &Energy) -> f64 {
-    let (mut sum, mut weight) = (0.0, 0.0);
-    for b in 0..BAND_COUNT {
-        if active[b] {
-            sum += fraction[b] * weights[b];
-            weight += weights[b];
-        }
-    }
+/// The mean of `fraction` weighted by `weights` (0 where they are all 0).
+/// Bands a trace leaves out weigh 0: a ray carries no energy in them.
+fn mean(fraction: &Energy, weights: &Energy) -> f64 {
+    let (sum, weight) = fraction
+        .iter()
+        .zip(weights)
+        .fold((0.0, 0.0), |(sum, weight), (f, w)| (sum + f * w, weight + w));
     if weight > 0.0 {
         sum / weight
     } else {
@@ -227,7 +224,6 @@ pub(super) struct Walk<'a> {
     /// `rays · c Δt / (4V/S)`, at most 1.
     rain_chance: f64,
     exact_order: u32,
-    active: [bool; BAND_COUNT],
     /// Each ray's starting energy per active band.
     start: Energy,
     max_length_m: f64,
@@ -257,7 +253,6 @@ impl<'a> Walk<'a> {
                 / (f64::from(input.options.rays) * input.speed_of_sound * BIN_S))
                 .min(1.0),
             exact_order: input.exact_order,
-            active: input.active_bands,
             start: input.active_bands.map(|a| if a { share } else { 0.0 }),
             max_length_m: input.options.max_length_s * input.speed_of_sound,
             offset: 1e-6 * scene.surfaces().scale().max(1e-3),
@@ -367,14 +362,14 @@ impl<'a> Walk<'a> {
             // below, so a seed's rays stay the same), and the ray ends
             // only where no active band reflects anything.
             let p_through = if surface.transmits {
-                let through = mean(&self.active, &surface.transmitted, &energy);
-                let back = mean(&self.active, &surface.reflected, &energy);
+                let through = mean(&surface.transmitted, &energy);
+                let back = mean(&surface.reflected, &energy);
                 if through + back <= 0.0 {
                     break;
                 }
                 through / (through + back)
             } else {
-                if mean(&self.active, &surface.reflected, &energy) <= 0.0 {
+                if mean(&surface.reflected, &energy) <= 0.0 {
                     break;
                 }
                 0.0
