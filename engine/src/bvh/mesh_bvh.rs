@@ -72,13 +72,16 @@ impl MeshBvh {
     /// Builds the hierarchy of `mesh`.
     pub fn build(mesh: &TriangleMesh, options: &BuildOptions) -> Self {
         let (binary, prim_ids) = binary_tree(mesh, options);
-        let bvh8 = avx_available()
+        let mut bvh8 = avx_available()
             .then(|| Bvh8::from_binary(&binary))
             .filter(Bvh8::addressable);
         let mut bvh = Bvh4::from_binary(&Bvh {
             nodes: binary,
             prim_ids: Vec::new(),
         });
+        if let Some(bvh8) = &mut bvh8 {
+            bvh8.link_leaves(&bvh);
+        }
         let triangles: Vec<[Vec3A; 3]> = prim_ids
             .par_iter()
             .with_min_len(4096)
@@ -156,12 +159,11 @@ impl MeshBvh {
             .with_min_len(4096)
             .zip(ids.par_iter())
             .for_each(|(tri, &t)| *tri = mesh.corners(t as usize));
-        let leaf = |first: u32, count: u32| -> &[[Vec3A; 3]] {
-            &self.triangles[first as usize..(first + count) as usize]
-        };
-        // The box and the area sum in one read of the leaf's triangles.
+        let triangles = &self.triangles;
+        // The box and the area sum in one read of the leaf's triangles; the
+        // 8-wide tree copies the boxes.
         let degradation = self.bvh.refit_measured(|first, count| {
-            leaf(first, count)
+            triangles[first as usize..(first + count) as usize]
                 .iter()
                 .fold((Aabb::EMPTY, 0.0), |(b, area), [p, q, r]| {
                     let t = Aabb::of_triangle(*p, *q, *r);
@@ -169,11 +171,7 @@ impl MeshBvh {
                 })
         });
         if let Some(bvh8) = &mut self.bvh8 {
-            bvh8.refit(|first, count| {
-                leaf(first, count).iter().fold(Aabb::EMPTY, |b, [p, q, r]| {
-                    b.union(Aabb::of_triangle(*p, *q, *r))
-                })
-            });
+            bvh8.refit_from(&self.bvh);
         }
         RefitReport { degradation }
     }
@@ -312,6 +310,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
+    use crate::bvh::traverse::Slot;
     use crate::geometry::shapes;
 
     /// Random rays from inside and outside, rays at the cube's grid
@@ -503,6 +502,54 @@ mod tests {
             );
             // And back: every ratio as built.
             assert!(bvh.refit(&mesh).unwrap().degradation.abs() < 1e-6);
+        }
+    }
+
+    /// After a refit every leaf slot of both trees bounds exactly its own
+    /// triangles, taken from the moved mesh: the 8-wide tree copies its
+    /// leaf boxes from the 4-wide one, and a copy from the wrong leaf shows.
+    #[test]
+    fn after_a_refit_every_leaf_box_is_its_triangles_box() {
+        if !avx_available() {
+            eprintln!("skipped: this CPU has no AVX, so there is no 8-wide tree");
+            return;
+        }
+        for levels in [2, 6] {
+            let mesh = shapes::icosphere(1.0, levels);
+            let moved = TriangleMesh::new(
+                mesh.positions()
+                    .iter()
+                    .map(|&p| p * (1.0 + 0.3 * (5.0 * p.x).sin()) + Vec3::Z * p.y * p.y)
+                    .collect(),
+                mesh.triangles().to_vec(),
+            )
+            .unwrap();
+            let mut bvh = MeshBvh::build(&mesh, &BuildOptions::default());
+            bvh.refit(&moved).unwrap();
+            let expected = |first: u32, count: u32| {
+                bvh.prim_ids[first as usize..(first + count) as usize]
+                    .iter()
+                    .fold(Aabb::EMPTY, |b, &t| {
+                        let [p, q, r] = moved.corners(t as usize);
+                        b.union(Aabb::of_triangle(p, q, r))
+                    })
+            };
+            let mut leaves = 0;
+            for n in bvh.bvh8.as_ref().unwrap().nodes() {
+                for s in 0..8 {
+                    if n.slot(s) == Slot::Leaf {
+                        assert_eq!(n.slot_aabb(s), expected(n.child[s], n.count[s]));
+                        leaves += 1;
+                    }
+                }
+            }
+            for n in &bvh.bvh.nodes {
+                for s in (0..4).filter(|&s| n.is_leaf_slot(s)) {
+                    assert_eq!(n.slot_aabb(s), expected(n.child[s], n.count[s]));
+                    leaves -= 1;
+                }
+            }
+            assert_eq!(leaves, 0, "both trees hold the same leaves");
         }
     }
 }

@@ -200,7 +200,9 @@ fn mean(fraction: &Energy, weights: &Energy) -> f64 {
     let (sum, weight) = fraction
         .iter()
         .zip(weights)
-        .fold((0.0, 0.0), |(sum, weight), (f, w)| (sum + f * w, weight + w));
+        .fold((0.0, 0.0), |(sum, weight), (f, w)| {
+            (sum + f * w, weight + w)
+        });
     if weight > 0.0 {
         sum / weight
     } else {

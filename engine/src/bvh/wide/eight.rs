@@ -10,6 +10,7 @@
 use glam::Vec4;
 
 use super::super::Node;
+use super::Bvh4;
 use crate::bvh::traverse::Slot;
 use crate::geometry::Aabb;
 
@@ -97,6 +98,11 @@ impl Node8 {
 #[derive(Clone, Debug, Default)]
 pub struct Bvh8 {
     pub(crate) nodes: Vec<Node8>,
+    /// Per node, for each leaf slot, where the 4-wide tree over the same
+    /// leaf slots holds that leaf (`4 · node + slot`; see
+    /// [`link_leaves`](Self::link_leaves)): a refit copies the leaf's box
+    /// from there rather than reading its triangles a second time.
+    leaf_sources: Vec<[u32; 8]>,
 }
 
 impl Bvh8 {
@@ -106,7 +112,43 @@ impl Bvh8 {
     pub fn from_binary(bin: &[Node]) -> Self {
         let mut nodes = super::collapse_tree(bin);
         nodes.shrink_to_fit();
-        Self { nodes }
+        Self {
+            nodes,
+            leaf_sources: Vec::new(),
+        }
+    }
+
+    /// Notes where `four`, collapsed from the same binary tree, holds each
+    /// leaf (the same leaf slots, found by their first slot), for
+    /// [`refit_from`](Self::refit_from).
+    pub(crate) fn link_leaves(&mut self, four: &Bvh4) {
+        // Indexed by first slot: leaves start at distinct slots below the
+        // slot count, which the last leaf's end gives.
+        let slots = four
+            .nodes
+            .iter()
+            .flat_map(|n| n.leaves())
+            .map(|(first, count)| first + count)
+            .max()
+            .unwrap_or(0);
+        let mut by_first = vec![u32::MAX; slots as usize];
+        for (i, n) in four.nodes.iter().enumerate() {
+            for s in 0..4 {
+                if n.is_leaf_slot(s) {
+                    by_first[n.child[s] as usize] = (4 * i + s) as u32;
+                }
+            }
+        }
+        self.leaf_sources = self
+            .nodes
+            .iter()
+            .map(|n| {
+                std::array::from_fn(|s| match n.slot(s) {
+                    Slot::Leaf => by_first[n.child[s] as usize],
+                    _ => u32::MAX,
+                })
+            })
+            .collect();
     }
 
     /// Whether every leaf can be named on the walk's stack: node and slot
@@ -122,11 +164,24 @@ impl Bvh8 {
 
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node8>()
+            + self.leaf_sources.capacity() * std::mem::size_of::<[u32; 8]>()
     }
 
-    /// Recomputes every box (see [`super::refit::refit_boxes`]).
-    pub(crate) fn refit(&mut self, leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync) {
-        super::refit::refit_boxes(&mut self.nodes, leaf_bounds);
+    /// Recomputes every box after `four` was refitted: leaf slots copied
+    /// from it (see [`link_leaves`](Self::link_leaves), which must have
+    /// been called), inner ones as the union of their child's slots.
+    pub(crate) fn refit_from(&mut self, four: &Bvh4) {
+        let sources = &self.leaf_sources;
+        let nodes = self.nodes.as_mut_slice();
+        super::refit::refit_leaves_zip(nodes, sources, |n: &mut Node8, from: &[u32; 8]| {
+            for (s, &from) in from.iter().enumerate() {
+                if from != u32::MAX {
+                    let b = four.nodes[(from / 4) as usize].slot_aabb((from % 4) as usize);
+                    n.set_slot_aabb(s, b);
+                }
+            }
+        });
+        super::refit::refit_inner(nodes);
     }
 }
 

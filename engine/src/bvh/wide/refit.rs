@@ -55,9 +55,27 @@ fn refit_leaves<N: WideNode, T: Send>(
     }
 }
 
+/// `leaves(node, with)` on every node and its item of `with`, on rayon for
+/// large trees.
+pub(super) fn refit_leaves_zip<N: WideNode, W: Sync>(
+    nodes: &mut [N],
+    with: &[W],
+    leaves: impl Fn(&mut N, &W) + Sync,
+) {
+    if nodes.len() >= PARALLEL_NODES {
+        nodes
+            .par_iter_mut()
+            .zip(with)
+            .with_min_len(256)
+            .for_each(|(n, w)| leaves(n, w));
+    } else {
+        nodes.iter_mut().zip(with).for_each(|(n, w)| leaves(n, w));
+    }
+}
+
 /// Inner slots as the union of their child's slots, in one reverse sweep
 /// (children come after their parent).
-fn refit_inner<N: WideNode>(nodes: &mut [N]) {
+pub(super) fn refit_inner<N: WideNode>(nodes: &mut [N]) {
     for i in (0..nodes.len()).rev() {
         for s in 0..N::WIDTH {
             if let Some(child) = nodes[i].inner(s) {
@@ -112,16 +130,15 @@ impl Bvh4 {
     /// of each leaf's primitives serves both.
     pub(crate) fn refit_measured(&mut self, leaf: impl Fn(u32, u32) -> (Aabb, f32) + Sync) -> f32 {
         self.pose = super::next_id();
-        let leaf_areas = refit_leaves(&mut self.nodes, |n: &mut Node4| {
-            let mut areas = [0.0; 4];
-            for s in 0..4 {
-                if n.is_leaf_slot(s) {
-                    let (b, area) = leaf(n.child[s], n.count[s]);
-                    n.set_slot_aabb(s, b);
-                    areas[s] = area;
+        let leaf_areas: Vec<[f32; 4]> = refit_leaves(&mut self.nodes, |n: &mut Node4| {
+            std::array::from_fn(|s| {
+                if !n.is_leaf_slot(s) {
+                    return 0.0;
                 }
-            }
-            areas
+                let (b, area) = leaf(n.child[s], n.count[s]);
+                n.set_slot_aabb(s, b);
+                area
+            })
         });
         refit_inner(&mut self.nodes);
         let nodes = &self.nodes;
