@@ -2,9 +2,10 @@
 //!
 //! One recursive driver builds the topology top-down; a method only decides
 //! how a range of primitives splits ([`BuildMethod`]). Large ranges are
-//! built in parallel with rayon, each half into its own node list that is
-//! then spliced into the parent's. Boxes are filled by one bottom-up pass at
-//! the end, so the Morton builder never computes a box while splitting.
+//! built in parallel with rayon, each half into its own node list, and the
+//! lists are laid out into one when the whole tree is known. Boxes are
+//! filled by one bottom-up pass at the end, so the Morton builder never
+//! computes a box while splitting.
 
 mod binned_sah;
 mod morton;
@@ -148,7 +149,7 @@ impl Bvh {
             centroids: &centroids,
             codes: &codes,
         };
-        let mut nodes = build_range(&ctx, &mut prim_ids, 0, 0);
+        let mut nodes = build_range(&ctx, &mut prim_ids, 0, 0).lay_out();
         refit::refit_nodes(&mut nodes, |first, count| {
             prim_ids[first as usize..(first + count) as usize]
                 .iter()
@@ -168,26 +169,86 @@ fn centroid(b: &Aabb) -> glam::Vec3A {
     }
 }
 
-/// Builds the subtree over `prims` (leaf slots `offset..offset+len`) into a
-/// fresh node list with its root at index 0. Children of every inner node
-/// are allocated as an adjacent pair after it.
-fn build_range(ctx: &Context, prims: &mut [u32], offset: usize, depth: u32) -> Vec<Node> {
+/// A built subtree: the nodes one thread built (root at index 0, children
+/// of every inner node an adjacent pair after it), or two subtrees built in
+/// parallel under a new root. Laid out once, when the whole tree is known:
+/// joining the lists at every parallel level copied every node once per
+/// level (with a fresh allocation each time).
+enum Subtree {
+    Nodes(Vec<Node>),
+    Join(Box<Subtree>, Box<Subtree>, usize),
+}
+
+impl Subtree {
+    fn join(left: Subtree, right: Subtree) -> Self {
+        let len = 1 + left.len() + right.len();
+        Self::Join(Box::new(left), Box::new(right), len)
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Self::Nodes(nodes) => nodes.len(),
+            Self::Join(_, _, len) => *len,
+        }
+    }
+
+    /// One node list: `[root, left root, right root, rest of left, rest of
+    /// right]` at every join.
+    fn lay_out(self) -> Vec<Node> {
+        let mut out = vec![Node::default(); self.len()];
+        self.write(&mut out, 0, 1);
+        out
+    }
+
+    /// Writes the root at `root` and the other nodes from `rest` on.
+    fn write(self, out: &mut [Node], root: usize, rest: usize) {
+        match self {
+            Self::Nodes(nodes) => {
+                // Local index i >= 1 moves to rest + i - 1.
+                let shift = |n: &Node| {
+                    let mut n = *n;
+                    if !n.is_leaf() {
+                        n.set_first((rest + n.first() as usize - 1) as u32);
+                    }
+                    n
+                };
+                out[root] = shift(&nodes[0]);
+                for (slot, n) in out[rest..].iter_mut().zip(&nodes[1..]) {
+                    *slot = shift(n);
+                }
+            }
+            Self::Join(left, right, _) => {
+                out[root] = Node::inner(Aabb::EMPTY, rest as u32);
+                let right_rest = rest + 2 + left.len() - 1;
+                left.write(out, rest, rest + 2);
+                right.write(out, rest + 1, right_rest);
+            }
+        }
+    }
+}
+
+/// Builds the subtree over `prims` (leaf slots `offset..offset+len`).
+fn build_range(ctx: &Context, prims: &mut [u32], offset: usize, depth: u32) -> Subtree {
     if prims.len() < ctx.options.parallel_threshold {
         let mut nodes = Vec::with_capacity(2 * prims.len().div_ceil(2));
         nodes.push(Node::default());
         let mut scratch = Scratch::default();
         build_sequential(ctx, &mut scratch, &mut nodes, 0, prims, offset, depth);
-        return nodes;
+        return Subtree::Nodes(nodes);
     }
     match split(ctx, &mut Scratch::default(), prims, offset, depth) {
-        Split::Leaf => vec![Node::leaf(Aabb::EMPTY, offset as u32, prims.len() as u32)],
+        Split::Leaf => Subtree::Nodes(vec![Node::leaf(
+            Aabb::EMPTY,
+            offset as u32,
+            prims.len() as u32,
+        )]),
         Split::At(mid) => {
             let (lp, rp) = prims.split_at_mut(mid);
             let (left, right) = rayon::join(
                 || build_range(ctx, lp, offset, depth + 1),
                 || build_range(ctx, rp, offset + mid, depth + 1),
             );
-            splice(left, right)
+            Subtree::join(left, right)
         }
     }
 }
@@ -213,28 +274,6 @@ fn build_sequential(
             build_sequential(ctx, scratch, nodes, first + 1, rp, offset + mid, depth + 1);
         }
     }
-}
-
-/// Joins two subtrees under a new root: `[root, left root, right root,
-/// rest of left, rest of right]`, shifting the links of both.
-fn splice(left: Vec<Node>, right: Vec<Node>) -> Vec<Node> {
-    let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
-    nodes.push(Node::inner(Aabb::EMPTY, 1));
-    // Local index i >= 1 of a subtree moves to base + i - 1.
-    let left_base = 3;
-    let right_base = left_base + left.len() - 1;
-    let shift = |n: &Node, base: usize| {
-        let mut n = *n;
-        if !n.is_leaf() {
-            n.set_first((base + n.first() as usize - 1) as u32);
-        }
-        n
-    };
-    nodes.push(shift(&left[0], left_base));
-    nodes.push(shift(&right[0], right_base));
-    nodes.extend(left[1..].iter().map(|n| shift(n, left_base)));
-    nodes.extend(right[1..].iter().map(|n| shift(n, right_base)));
-    nodes
 }
 
 /// Chooses how `prims` splits, reordering it if the method needs to.
