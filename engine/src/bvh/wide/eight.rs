@@ -10,7 +10,7 @@
 use glam::Vec4;
 
 use super::super::Node;
-use super::Bvh4;
+use super::{Bvh4, WideNode};
 use crate::bvh::traverse::Slot;
 use crate::geometry::Aabb;
 
@@ -99,9 +99,9 @@ impl Node8 {
 pub struct Bvh8 {
     pub(crate) nodes: Vec<Node8>,
     /// Per node, for each leaf slot, where the 4-wide tree over the same
-    /// leaf slots holds that leaf (`4 · node + slot`; see
-    /// [`link_leaves`](Self::link_leaves)): a refit copies the leaf's box
-    /// from there rather than reading its triangles a second time.
+    /// leaf slots holds that leaf (`4 · node + slot`; `u32::MAX` for other
+    /// slots): a refit copies the leaf's box from there rather than
+    /// reading its triangles a second time.
     leaf_sources: Vec<[u32; 8]>,
 }
 
@@ -109,46 +109,16 @@ impl Bvh8 {
     /// Collapses a binary tree: each node takes the two children of a
     /// binary node and keeps opening the largest inner child until it holds
     /// eight (as [`Bvh4::from_binary`](super::Bvh4::from_binary) does four).
-    pub fn from_binary(bin: &[Node]) -> Self {
+    /// `four` is the 4-wide tree collapsed from the same binary tree, which
+    /// [`refit_from`](Self::refit_from) copies leaf boxes from.
+    pub fn from_binary(bin: &[Node], four: &Bvh4) -> Self {
         let mut nodes = super::collapse_tree(bin);
         nodes.shrink_to_fit();
+        let leaf_sources = leaf_sources(&nodes, four);
         Self {
             nodes,
-            leaf_sources: Vec::new(),
+            leaf_sources,
         }
-    }
-
-    /// Notes where `four`, collapsed from the same binary tree, holds each
-    /// leaf (the same leaf slots, found by their first slot), for
-    /// [`refit_from`](Self::refit_from).
-    pub(crate) fn link_leaves(&mut self, four: &Bvh4) {
-        // Indexed by first slot: leaves start at distinct slots below the
-        // slot count, which the last leaf's end gives.
-        let slots = four
-            .nodes
-            .iter()
-            .flat_map(|n| n.leaves())
-            .map(|(first, count)| first + count)
-            .max()
-            .unwrap_or(0);
-        let mut by_first = vec![u32::MAX; slots as usize];
-        for (i, n) in four.nodes.iter().enumerate() {
-            for s in 0..4 {
-                if n.is_leaf_slot(s) {
-                    by_first[n.child[s] as usize] = (4 * i + s) as u32;
-                }
-            }
-        }
-        self.leaf_sources = self
-            .nodes
-            .iter()
-            .map(|n| {
-                std::array::from_fn(|s| match n.slot(s) {
-                    Slot::Leaf => by_first[n.child[s] as usize],
-                    _ => u32::MAX,
-                })
-            })
-            .collect();
     }
 
     /// Whether every leaf can be named on the walk's stack: node and slot
@@ -168,21 +138,53 @@ impl Bvh8 {
     }
 
     /// Recomputes every box after `four` was refitted: leaf slots copied
-    /// from it (see [`link_leaves`](Self::link_leaves), which must have
-    /// been called), inner ones as the union of their child's slots.
+    /// from it, inner ones as the union of their child's slots.
     pub(crate) fn refit_from(&mut self, four: &Bvh4) {
         let sources = &self.leaf_sources;
-        let nodes = self.nodes.as_mut_slice();
-        super::refit::refit_leaves_zip(nodes, sources, |n: &mut Node8, from: &[u32; 8]| {
-            for (s, &from) in from.iter().enumerate() {
+        super::refit::refit_leaves(&mut self.nodes, |i, n: &mut Node8| {
+            for (s, &from) in sources[i].iter().enumerate() {
                 if from != u32::MAX {
                     let b = four.nodes[(from / 4) as usize].slot_aabb((from % 4) as usize);
                     n.set_slot_aabb(s, b);
                 }
             }
         });
-        super::refit::refit_inner(nodes);
+        super::refit::refit_inner(&mut self.nodes);
     }
+}
+
+/// Where `four`, collapsed from the same binary tree as `nodes`, holds each
+/// leaf of `nodes` (see [`Bvh8::leaf_sources`]), found by its first slot.
+fn leaf_sources(nodes: &[Node8], four: &Bvh4) -> Vec<[u32; 8]> {
+    // Indexed by first slot: leaves start at distinct slots below the slot
+    // count, which the last leaf's end gives.
+    let slots = four
+        .nodes
+        .iter()
+        .flat_map(|n| n.leaves())
+        .map(|(first, count)| first + count)
+        .max()
+        .unwrap_or(0);
+    let mut by_first = vec![u32::MAX; slots as usize];
+    for (i, n) in four.nodes.iter().enumerate() {
+        for s in 0..4 {
+            if n.is_leaf_slot(s) {
+                by_first[n.child[s] as usize] = (4 * i + s) as u32;
+            }
+        }
+    }
+    nodes
+        .iter()
+        .map(|n| {
+            std::array::from_fn(|s| {
+                n.leaf(s).map_or(u32::MAX, |(first, _)| {
+                    let from = by_first[first as usize];
+                    debug_assert_ne!(from, u32::MAX, "a leaf the 4-wide tree lacks");
+                    from
+                })
+            })
+        })
+        .collect()
 }
 
 impl super::WideNode for Node8 {
@@ -251,30 +253,5 @@ mod tests {
             }
         }
         assert!(Node8::EMPTY.aabb().is_empty());
-    }
-
-    /// Four slots' half areas at a time are each slot's
-    /// [`Aabb::half_area`], bit for bit; an empty slot's is 0.
-    #[test]
-    fn four_slots_half_areas_are_each_slots() {
-        let mut n4 = super::super::EMPTY_NODE;
-        let boxes = [
-            Aabb::new(Vec3A::new(-3.0, 0.5, 2.0), Vec3A::new(-1.0, 4.1, 2.7)),
-            Aabb::new(Vec3A::new(1e6, -2.0, -7.0), Vec3A::new(2e6, -1.0, 9.3)),
-            Aabb::new(Vec3A::splat(0.1), Vec3A::new(0.1, 0.2, 0.1)),
-        ];
-        for (s, b) in [0, 1, 3].into_iter().zip(boxes) {
-            n4.set_slot(s, b, 0, 1);
-        }
-        let areas = n4.boxes.half_areas();
-        for (s, area) in areas.iter().enumerate() {
-            assert_eq!(
-                area.to_bits(),
-                n4.slot_aabb(s).half_area().to_bits(),
-                "slot {s}"
-            );
-        }
-        assert_eq!(areas[2], 0.0);
-        assert!(areas[1] > 1e6);
     }
 }

@@ -28,7 +28,7 @@ pub(super) fn refit_boxes<N: WideNode>(
     nodes: &mut [N],
     leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync,
 ) {
-    refit_leaves(nodes, |n: &mut N| {
+    refit_leaves(nodes, |_, n: &mut N| {
         for s in 0..N::WIDTH {
             if let Some((first, count)) = n.leaf(s) {
                 n.set_slot_aabb(s, leaf_bounds(first, count));
@@ -38,38 +38,25 @@ pub(super) fn refit_boxes<N: WideNode>(
     refit_inner(nodes);
 }
 
-/// `leaves(node)` on every node, on rayon for large trees; what each
-/// returned, in node order.
-fn refit_leaves<N: WideNode, T: Send>(
+/// `leaves(index, node)` on every node, on rayon for large trees; what
+/// each returned, in node order.
+pub(super) fn refit_leaves<N: WideNode, T: Send>(
     nodes: &mut [N],
-    leaves: impl Fn(&mut N) -> T + Sync,
+    leaves: impl Fn(usize, &mut N) -> T + Sync,
 ) -> Vec<T> {
     if nodes.len() >= PARALLEL_NODES {
         nodes
             .par_iter_mut()
+            .enumerate()
             .with_min_len(256)
-            .map(&leaves)
+            .map(|(i, n)| leaves(i, n))
             .collect()
     } else {
-        nodes.iter_mut().map(leaves).collect()
-    }
-}
-
-/// `leaves(node, with)` on every node and its item of `with`, on rayon for
-/// large trees.
-pub(super) fn refit_leaves_zip<N: WideNode, W: Sync>(
-    nodes: &mut [N],
-    with: &[W],
-    leaves: impl Fn(&mut N, &W) + Sync,
-) {
-    if nodes.len() >= PARALLEL_NODES {
         nodes
-            .par_iter_mut()
-            .zip(with)
-            .with_min_len(256)
-            .for_each(|(n, w)| leaves(n, w));
-    } else {
-        nodes.iter_mut().zip(with).for_each(|(n, w)| leaves(n, w));
+            .iter_mut()
+            .enumerate()
+            .map(|(i, n)| leaves(i, n))
+            .collect()
     }
 }
 
@@ -130,7 +117,7 @@ impl Bvh4 {
     /// of each leaf's primitives serves both.
     pub(crate) fn refit_measured(&mut self, leaf: impl Fn(u32, u32) -> (Aabb, f32) + Sync) -> f32 {
         self.pose = super::next_id();
-        let leaf_areas: Vec<[f32; 4]> = refit_leaves(&mut self.nodes, |n: &mut Node4| {
+        let leaf_areas: Vec<[f32; 4]> = refit_leaves(&mut self.nodes, |_, n: &mut Node4| {
             std::array::from_fn(|s| {
                 if !n.is_leaf_slot(s) {
                     return 0.0;
@@ -173,8 +160,7 @@ pub(crate) fn node_ratios(
 /// the area ratios since the build, over nodes and over the leaf slots
 /// `counted(node, slot)` names (those with several primitives), `now(node)`
 /// giving a node's ratios. 0 under translation; large when neighbours
-/// part. The plain tree's leaf areas are another pass over the triangles
-/// inside `now`, so large trees measure on rayon.
+/// part. Large trees measure on rayon: five ratios per node.
 pub(crate) fn degradation(
     built: &[[f32; 5]],
     now: impl Fn(usize) -> [f32; 5] + Sync,
@@ -213,6 +199,8 @@ pub(crate) fn degradation(
 
 #[cfg(test)]
 mod tests {
+    use glam::Vec3A;
+
     use super::*;
 
     /// Every node grew by 0.5, and every other node's first slot, counted,
@@ -233,5 +221,30 @@ mod tests {
         assert_eq!(large % 2, 0);
         assert_eq!(half_counted(large), 1.0);
         assert_eq!(half_counted(0), 0.0);
+    }
+
+    /// Four slots' half areas at a time are each slot's
+    /// [`Aabb::half_area`], bit for bit; an empty slot's is 0.
+    #[test]
+    fn four_slots_half_areas_are_each_slots() {
+        let mut n4 = super::super::EMPTY_NODE;
+        let boxes = [
+            Aabb::new(Vec3A::new(-3.0, 0.5, 2.0), Vec3A::new(-1.0, 4.1, 2.7)),
+            Aabb::new(Vec3A::new(1e6, -2.0, -7.0), Vec3A::new(2e6, -1.0, 9.3)),
+            Aabb::new(Vec3A::splat(0.1), Vec3A::new(0.1, 0.2, 0.1)),
+        ];
+        for (s, b) in [0, 1, 3].into_iter().zip(boxes) {
+            n4.set_slot(s, b, 0, 1);
+        }
+        let areas = n4.boxes.half_areas();
+        for (s, area) in areas.iter().enumerate() {
+            assert_eq!(
+                area.to_bits(),
+                n4.slot_aabb(s).half_area().to_bits(),
+                "slot {s}"
+            );
+        }
+        assert_eq!(areas[2], 0.0);
+        assert!(areas[1] > 1e6);
     }
 }
