@@ -140,9 +140,9 @@ impl Bvh8 {
     /// Recomputes every box after `four` was refitted: leaf slots copied
     /// from it, inner ones as the union of their child's slots.
     pub(crate) fn refit_from(&mut self, four: &Bvh4) {
-        let sources = &self.leaf_sources;
-        super::refit::refit_leaves(&mut self.nodes, |i, n: &mut Node8| {
-            for (s, &from) in sources[i].iter().enumerate() {
+        let (nodes, sources) = (&mut self.nodes, &mut self.leaf_sources);
+        super::refit::refit_leaves(nodes, sources, |n: &mut Node8, sources| {
+            for (s, &from) in sources.iter().enumerate() {
                 if from != u32::MAX {
                     let b = four.nodes[(from / 4) as usize].slot_aabb((from % 4) as usize);
                     n.set_slot_aabb(s, b);

@@ -65,12 +65,15 @@ impl Boxes4 {
     }
 
     pub fn slot_aabb(&self, slot: usize) -> Aabb {
-        // Through arrays: glam indexes a `Vec4` by a jump table, a branch
-        // per access that a refit's passes do not predict.
-        let (lo, hi) = (self.lo.map(|r| r.to_array()), self.hi.map(|r| r.to_array()));
+        // Through array views: glam indexes a `Vec4` by a jump table, a
+        // branch per access that a refit's passes do not predict.
+        let plane = |rows: &[Vec4; 3], axis: usize| -> f32 {
+            let row: &[f32; 4] = rows[axis].as_ref();
+            row[slot]
+        };
         Aabb::new(
-            glam::Vec3A::new(lo[0][slot], lo[1][slot], lo[2][slot]),
-            glam::Vec3A::new(hi[0][slot], hi[1][slot], hi[2][slot]),
+            glam::Vec3A::new(plane(&self.lo, 0), plane(&self.lo, 1), plane(&self.lo, 2)),
+            glam::Vec3A::new(plane(&self.hi, 0), plane(&self.hi, 1), plane(&self.hi, 2)),
         )
     }
 

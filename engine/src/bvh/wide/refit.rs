@@ -28,7 +28,7 @@ pub(super) fn refit_boxes<N: WideNode>(
     nodes: &mut [N],
     leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync,
 ) {
-    refit_leaves(nodes, |_, n: &mut N| {
+    refit_leaves(nodes, &mut vec![(); nodes.len()], |n: &mut N, _| {
         for s in 0..N::WIDTH {
             if let Some((first, count)) = n.leaf(s) {
                 n.set_slot_aabb(s, leaf_bounds(first, count));
@@ -38,25 +38,23 @@ pub(super) fn refit_boxes<N: WideNode>(
     refit_inner(nodes);
 }
 
-/// `leaves(index, node)` on every node, on rayon for large trees; what
-/// each returned, in node order.
-pub(super) fn refit_leaves<N: WideNode, T: Send>(
+/// `leaves(node, item)` on every node and its item of `with`, on rayon for
+/// large trees.
+pub(super) fn refit_leaves<N: WideNode, W: Send>(
     nodes: &mut [N],
-    leaves: impl Fn(usize, &mut N) -> T + Sync,
-) -> Vec<T> {
+    with: &mut [W],
+    leaves: impl Fn(&mut N, &mut W) + Sync,
+) {
     if nodes.len() >= PARALLEL_NODES {
         nodes
             .par_iter_mut()
-            .enumerate()
+            .zip(with)
             .with_min_len(256)
-            .map(|(i, n)| leaves(i, n))
-            .collect()
+            .for_each(|(n, w)| leaves(n, w));
     } else {
-        nodes
-            .iter_mut()
-            .enumerate()
-            .map(|(i, n)| leaves(i, n))
-            .collect()
+        for (n, w) in nodes.iter_mut().zip(with) {
+            leaves(n, w);
+        }
     }
 }
 
@@ -117,15 +115,15 @@ impl Bvh4 {
     /// of each leaf's primitives serves both.
     pub(crate) fn refit_measured(&mut self, leaf: impl Fn(u32, u32) -> (Aabb, f32) + Sync) -> f32 {
         self.pose = super::next_id();
-        let leaf_areas: Vec<[f32; 4]> = refit_leaves(&mut self.nodes, |_, n: &mut Node4| {
-            std::array::from_fn(|s| {
-                if !n.is_leaf_slot(s) {
-                    return 0.0;
+        let mut leaf_areas = vec![[0.0f32; 4]; self.nodes.len()];
+        refit_leaves(&mut self.nodes, &mut leaf_areas, |n: &mut Node4, areas| {
+            for (s, area) in areas.iter_mut().enumerate() {
+                if n.is_leaf_slot(s) {
+                    let b;
+                    (b, *area) = leaf(n.child[s], n.count[s]);
+                    n.set_slot_aabb(s, b);
                 }
-                let (b, area) = leaf(n.child[s], n.count[s]);
-                n.set_slot_aabb(s, b);
-                area
-            })
+            }
         });
         refit_inner(&mut self.nodes);
         let nodes = &self.nodes;
