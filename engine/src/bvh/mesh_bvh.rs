@@ -404,6 +404,15 @@ mod tests {
         .unwrap()
     }
 
+    /// An icosphere of `levels`, it bent, and its tree refitted to the bend.
+    fn refitted_to_bent(levels: u32) -> (TriangleMesh, TriangleMesh, MeshBvh, RefitReport) {
+        let mesh = shapes::icosphere(1.0, levels);
+        let moved = bent(&mesh);
+        let mut bvh = MeshBvh::build(&mesh, &BuildOptions::default());
+        let report = bvh.refit(&moved).unwrap();
+        (mesh, moved, bvh, report)
+    }
+
     /// Half the area of the box of `corners`, in `f64`.
     fn half_area_f64(corners: impl Iterator<Item = Vec3A>) -> f64 {
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -486,10 +495,7 @@ mod tests {
     #[test]
     fn refit_degradation_is_the_mean_growth_of_area_ratios_from_scratch() {
         for levels in [3, 6] {
-            let mesh = shapes::icosphere(1.0, levels);
-            let moved = bent(&mesh);
-            let mut bvh = MeshBvh::build(&mesh, &BuildOptions::default());
-            let report = bvh.refit(&moved).unwrap();
+            let (mesh, moved, mut bvh, report) = refitted_to_bent(levels);
             let expected = degradation_from_scratch(&bvh, &mesh, &moved);
             assert!(
                 expected > 0.05,
@@ -513,10 +519,7 @@ mod tests {
     #[test]
     fn after_a_refit_every_leaf_box_is_its_triangles_box() {
         for levels in [2, 6] {
-            let mesh = shapes::icosphere(1.0, levels);
-            let moved = bent(&mesh);
-            let mut bvh = MeshBvh::build(&mesh, &BuildOptions::default());
-            bvh.refit(&moved).unwrap();
+            let (_, moved, bvh, _) = refitted_to_bent(levels);
             let expected = |first: u32, count: u32| {
                 bvh.prim_ids[first as usize..(first + count) as usize]
                     .iter()
