@@ -85,7 +85,7 @@ impl MeshBvh {
             .with_min_len(4096)
             .map(|&t| mesh.corners(t as usize))
             .collect();
-        bvh.record_build_ratios(|f, c| leaf_box_and_area(&triangles, f, c).1);
+        bvh.record_build_ratios(|f, c| leaf_box_and_area(|s| triangles[s as usize], f, c).1);
         Self {
             bvh,
             prim_ids,
@@ -161,7 +161,7 @@ impl MeshBvh {
         // The 8-wide tree copies the boxes.
         let degradation = self
             .bvh
-            .refit_measured(|first, count| leaf_box_and_area(triangles, first, count));
+            .refit_measured(|f, c| leaf_box_and_area(|s| triangles[s as usize], f, c));
         if let Some(bvh8) = &mut self.bvh8 {
             bvh8.refit_from(&self.bvh);
         }
@@ -282,26 +282,20 @@ fn binary_tree(mesh: &TriangleMesh, options: &BuildOptions) -> (Vec<Node>, Vec<u
 }
 
 /// The box of slots `first..first + count` and the sum of their boxes'
-/// areas, from one read of their triangles: what a refit and the rebuild
-/// heuristic need of a leaf (the build's ratios are taken from the same
-/// sums, so an unchanged mesh measures exactly 0).
-fn leaf_box_and_area(triangles: &[[Vec3A; 3]], first: u32, count: u32) -> (Aabb, f32) {
-    triangles[first as usize..(first + count) as usize]
-        .iter()
-        .fold((Aabb::EMPTY, 0.0), |(b, area), [p, q, r]| {
-            let t = Aabb::of_triangle(*p, *q, *r);
-            (b.union(t), area + t.half_area())
-        })
-}
-
-/// The sum of the box areas of slots `first..first + count`.
-pub(crate) fn leaf_area_sum_of(corners: impl Fn(u32) -> [Vec3A; 3], first: u32, count: u32) -> f32 {
-    (first..first + count)
-        .map(|s| {
-            let [a, b, c] = corners(s);
-            Aabb::of_triangle(a, b, c).half_area()
-        })
-        .sum()
+/// areas, from one read of their triangles (`corners(slot)`): what a refit
+/// and the rebuild heuristic need of a leaf, for either layout. The build's
+/// ratios are taken from the same sums, so an unchanged mesh measures
+/// exactly 0.
+pub(crate) fn leaf_box_and_area(
+    corners: impl Fn(u32) -> [Vec3A; 3],
+    first: u32,
+    count: u32,
+) -> (Aabb, f32) {
+    (first..first + count).fold((Aabb::EMPTY, 0.0), |(b, area), s| {
+        let [p, q, r] = corners(s);
+        let t = Aabb::of_triangle(p, q, r);
+        (b.union(t), area + t.half_area())
+    })
 }
 
 #[cfg(test)]
@@ -312,6 +306,7 @@ mod tests {
 
     use super::*;
     use crate::bvh::traverse::Slot;
+    use crate::bvh::wide::refit::PARALLEL_NODES;
     use crate::geometry::shapes;
 
     /// Random rays from inside and outside, rays at the cube's grid
@@ -496,6 +491,8 @@ mod tests {
     fn refit_degradation_is_the_mean_growth_of_area_ratios_from_scratch() {
         for levels in [3, 6] {
             let (mesh, moved, mut bvh, report) = refitted_to_bent(levels);
+            let on_rayon = bvh.bvh.nodes.len() >= PARALLEL_NODES;
+            assert_eq!(on_rayon, levels == 6, "{} nodes", bvh.bvh.nodes.len());
             let expected = degradation_from_scratch(&bvh, &mesh, &moved);
             assert!(
                 expected > 0.05,
@@ -515,10 +512,11 @@ mod tests {
     /// After a refit every leaf slot of both trees bounds exactly its own
     /// triangles, taken from the moved mesh: the 8-wide tree (where the CPU
     /// has AVX) copies its leaf boxes from the 4-wide one, and a copy from
-    /// the wrong leaf shows.
+    /// the wrong leaf shows; on a tree copied on one thread and on one
+    /// copied on rayon.
     #[test]
     fn after_a_refit_every_leaf_box_is_its_triangles_box() {
-        for levels in [2, 6] {
+        for levels in [2, 7] {
             let (_, moved, bvh, _) = refitted_to_bent(levels);
             let expected = |first: u32, count: u32| {
                 bvh.prim_ids[first as usize..(first + count) as usize]
@@ -539,6 +537,8 @@ mod tests {
                 eprintln!("this CPU has no AVX: no 8-wide tree to check");
                 continue;
             };
+            let on_rayon = eight.nodes().len() >= PARALLEL_NODES;
+            assert_eq!(on_rayon, levels == 7, "{} nodes", eight.nodes().len());
             for n in eight.nodes() {
                 for s in (0..8).filter(|&s| n.slot(s) == Slot::Leaf) {
                     assert_eq!(n.slot_aabb(s), expected(n.child[s], n.count[s]));

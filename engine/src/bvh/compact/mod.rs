@@ -30,7 +30,7 @@ pub mod tree;
 
 use glam::Vec3A;
 
-use super::mesh_bvh::{leaf_area_sum_of, wide_tree};
+use super::mesh_bvh::{leaf_box_and_area, wide_tree};
 use super::ray_queries::{self, LeafTriangles};
 use super::{BuildOptions, MeshHit, RefitReport};
 use crate::geometry::{Aabb, Ray, TriangleMesh};
@@ -81,15 +81,9 @@ impl CompactBvh {
         impl Fn(u32, u32) -> Aabb + Sync + '_,
         impl Fn(u32, u32) -> f32 + '_,
     ) {
-        let t = &self.triangles;
-        let bounds = move |first: u32, count: u32| {
-            (first..first + count).fold(Aabb::EMPTY, |b, s| {
-                let [p, q, r] = t.corners(s as usize);
-                b.union(Aabb::of_triangle(p, q, r))
-            })
-        };
-        let areas =
-            move |first: u32, count: u32| leaf_area_sum_of(|s| t.corners(s as usize), first, count);
+        let corners = |s: u32| self.triangles.corners(s as usize);
+        let bounds = move |first, count| leaf_box_and_area(corners, first, count).0;
+        let areas = move |first, count| leaf_box_and_area(corners, first, count).1;
         (bounds, areas)
     }
 

@@ -14,7 +14,7 @@ use crate::geometry::Aabb;
 
 /// Below this many nodes a pass over them (the refit's leaves, the
 /// degradation) runs on one thread.
-const PARALLEL_NODES: usize = 4 * 1024;
+pub(crate) const PARALLEL_NODES: usize = 4 * 1024;
 
 /// Nodes per partial sum of the degradation: fixed chunks summed in order,
 /// so its rounding, and the rebuild decision it drives, do not depend on
