@@ -241,6 +241,58 @@ fn all_hits_are_every_triangle_a_ray_crosses() {
     assert!(clear_hits > 2_050, "{clear_hits}");
 }
 
+/// The nearest triangle a ray meets is the nearest crossing found in f64
+/// by brute force over every object's triangles in world space, wherever
+/// the nearest crossing is clear of edges and of the next one.
+#[test]
+fn the_nearest_triangle_is_the_nearest_crossing() {
+    let scene = test_scene();
+    let bvh = SceneBvh::build(&scene, &BuildOptions::default());
+    let world: Vec<([DVec3; 3], (u32, u32))> = triangles_in_frame_f64(&scene, 0)
+        .into_iter()
+        .enumerate()
+        .flat_map(|(o, tris)| {
+            tris.into_iter()
+                .enumerate()
+                .map(move |(t, c)| (c, (o as u32, t as u32)))
+        })
+        .collect();
+    let mut rng = Rng(91);
+    let (mut checked, mut on_objects) = (0, 0);
+    for _ in 0..2_000 {
+        let ray = Ray::new(rng.direction() * rng.range(0.0, 9.0), rng.direction());
+        let (o, d) = (
+            Vec3::from(ray.origin).as_dvec3(),
+            Vec3::from(ray.dir).as_dvec3(),
+        );
+        let mut crossings: Vec<(f64, (u32, u32), bool)> = world
+            .iter()
+            .filter_map(|(corners, owner)| {
+                let (t, u, v) = crossing(o, d, *corners)?;
+                let inside = |m: f64| u > m && v > m && u + v < 1.0 - m;
+                (t > 0.0 && inside(-1e-4)).then_some((t, *owner, inside(1e-4)))
+            })
+            .collect();
+        crossings.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let [(t, owner, clear), rest @ ..] = &crossings[..] else {
+            panic!("every ray leaves the room: {ray:?}");
+        };
+        if !clear || rest.first().is_some_and(|next| next.0 - t < 1e-3) {
+            continue;
+        }
+        let found = bvh.closest_triangle(&ray).expect("a hit");
+        assert_eq!((found.object, found.triangle), *owner, "{ray:?}");
+        assert!(
+            (f64::from(found.t) - t).abs() <= 1e-5 * t.max(1.0),
+            "{} against {t}",
+            found.t
+        );
+        checked += 1;
+        on_objects += usize::from(owner.0 > 0);
+    }
+    assert!(checked > 1_900 && on_objects > 30, "{checked} {on_objects}");
+}
+
 /// Pairs of triangles of different objects whose boxes overlap in the
 /// frame of the first object (the frame the pair walk works in), judged in
 /// f64, as `((object, triangle), (object, triangle))`.

@@ -202,6 +202,13 @@ impl MeshBvh {
         ray_queries::closest_hit(self, ray)
     }
 
+    /// The nearest hit's distance and mesh triangle: [`Self::closest_hit`]
+    /// without the hit point, barycentrics and normal.
+    #[inline]
+    pub fn closest_triangle(&self, ray: &Ray) -> Option<(f32, u32)> {
+        ray_queries::closest_slot(self, ray).map(|(t, slot)| (t, self.prim_id(slot)))
+    }
+
     /// The hit `h` on the triangle in leaf slot `slot`.
     #[inline]
     pub(crate) fn mesh_hit(&self, slot: u32, h: TriangleHit) -> MeshHit {

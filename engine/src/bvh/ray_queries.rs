@@ -135,6 +135,15 @@ pub(crate) fn closest_hit<M: LeafTriangles>(mesh: &M, ray: &Ray) -> Option<MeshH
     nearest.hit()
 }
 
+/// [`closest_hit`]'s distance and leaf slot alone, for callers that know
+/// their triangles' planes: no hit point, barycentrics or normal.
+#[inline]
+pub(crate) fn closest_slot<M: LeafTriangles>(mesh: &M, ray: &Ray) -> Option<(f32, u32)> {
+    let mut nearest = Nearest::new(mesh);
+    walk(mesh, ray, |slot, h, t_max| nearest.offer(slot, h, t_max));
+    nearest.best.map(|(slot, h)| (h.t, slot))
+}
+
 /// [`closest_hit`] among the triangles of the subtrees `open` lets the walk
 /// into (see [`walk_pruned`]).
 #[inline]

@@ -9,4 +9,4 @@ mod ray;
 pub use crate::bvh::{ObjectStats, SceneBvh, SceneBvhStats};
 pub use packet::RayPacket;
 pub(crate) use ray::local;
-pub use ray::SceneHit;
+pub use ray::{NearestTriangle, SceneHit};

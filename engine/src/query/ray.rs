@@ -2,7 +2,7 @@ use glam::Vec3;
 
 use crate::bvh::lod::{self, LodOptions, LodTree};
 use crate::bvh::traverse::{Flow, RayTest};
-use crate::bvh::{Instance, MeshHit, SceneBvh};
+use crate::bvh::{Instance, MeshBvh, MeshHit, SceneBvh};
 use crate::geometry::{trace_batch, Ray};
 use crate::scene::MaterialId;
 
@@ -27,6 +27,17 @@ pub struct SceneHit {
     pub point: Vec3,
 }
 
+/// A ray's nearest triangle in a scene (see [`SceneBvh::closest_triangle`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NearestTriangle {
+    /// Distance along the ray, in units of the ray direction's length.
+    pub t: f32,
+    /// Index of the object in the scene.
+    pub object: u32,
+    /// Index of the triangle in the object's mesh.
+    pub triangle: u32,
+}
+
 /// The ray in an object's frame with range end `t_max`; rigid, so `t` is
 /// unchanged.
 #[inline]
@@ -46,23 +57,48 @@ pub(crate) fn local(inst: &Instance, ray: &Ray, t_max: f32) -> Ray {
 impl SceneBvh {
     /// The nearest hit within the ray's range; invalid rays hit nothing.
     pub fn closest_hit(&self, ray: &Ray) -> Option<SceneHit> {
+        self.nearest(ray, MeshBvh::closest_hit, |h| h.t)
+            .map(|(object, hit)| self.scene_hit(ray, object, hit))
+    }
+
+    /// The nearest hit's distance, object and triangle: [`Self::closest_hit`]
+    /// without the point, barycentrics, normal and material, for callers
+    /// that keep their own per-triangle data (the stochastic tail reads its
+    /// surfaces' planes, which are already in world space).
+    pub fn closest_triangle(&self, ray: &Ray) -> Option<NearestTriangle> {
+        self.nearest(ray, MeshBvh::closest_triangle, |h| h.0)
+            .map(|(object, (t, triangle))| NearestTriangle {
+                t,
+                object,
+                triangle,
+            })
+    }
+
+    /// The nearest of the objects' hits `hit` finds, `t(hit)` its distance,
+    /// with its object.
+    #[inline(always)]
+    fn nearest<H>(
+        &self,
+        ray: &Ray,
+        hit: impl Fn(&MeshBvh, &Ray) -> Option<H>,
+        t: impl Fn(&H) -> f32,
+    ) -> Option<(u32, H)> {
         if !ray.is_valid() {
             return None;
         }
         if let [inst] = self.instances() {
             // One object: its own walk tests the boxes the top level would.
-            let hit = inst.bvh().closest_hit(&local(inst, ray, ray.t_max))?;
-            return Some(self.scene_hit(ray, 0, hit));
+            return hit(inst.bvh(), &local(inst, ray, ray.t_max)).map(|h| (0, h));
         }
-        let mut best: Option<(u32, MeshHit)> = None;
+        let mut best = None;
         self.walk_objects(&RayTest::new(ray), ray.t_max, |object, inst, t_max| {
-            if let Some(hit) = inst.bvh().closest_hit(&local(inst, ray, *t_max)) {
-                *t_max = hit.t;
-                best = Some((object, hit));
+            if let Some(h) = hit(inst.bvh(), &local(inst, ray, *t_max)) {
+                *t_max = t(&h);
+                best = Some((object, h));
             }
             Flow::Continue(())
         });
-        best.map(|(object, hit)| self.scene_hit(ray, object, hit))
+        best
     }
 
     /// `hit`, found on `object` by `ray`, in world terms.

@@ -10,6 +10,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::region::Region;
 use super::{Room, TailInput, BIN_S};
+use crate::acoustics::surfaces::{Plane, SurfaceGroup, NO_GROUP};
 use crate::acoustics::AcousticScene;
 use crate::deadline::{Deadline, CLOCK_PERIOD};
 use crate::geometry::Ray;
@@ -153,43 +154,50 @@ impl From<&Event> for Recorded {
 /// them at every hit, worked out once per trace for the active bands.
 struct Surface {
     reflected: Energy,
-    scattered: Energy,
     transmitted: Energy,
-    /// Whether any band passes through.
+    /// The diffusely reflected share, `(1 − α) s`: the rain's.
+    rain: Energy,
+    /// Whether any band scatters, or passes through.
+    scatters: bool,
     transmits: bool,
     /// The chance a reflection is diffuse: the scattering's mean over the
     /// active bands.
     p_diffuse: f64,
-    /// The re-weighting of each band's energy on a diffuse reflection,
-    /// `s / p_diffuse`, and on a specular one, `(1 − s) / (1 − p_diffuse)`.
-    diffuse_share: Energy,
-    specular_share: Energy,
+    /// Each band's factor on a diffuse reflection, `(1 − α) s / p_diffuse`,
+    /// and on a specular one, `(1 − α)(1 − s) / (1 − p_diffuse)`: reflected,
+    /// then re-weighted for the choice.
+    diffuse: Energy,
+    specular: Energy,
 }
 
 impl Surface {
     /// For a material id the table lacks: a perfect specular reflector.
     const REFLECTING: Surface = Surface {
         reflected: [1.0; BAND_COUNT],
-        scattered: [0.0; BAND_COUNT],
         transmitted: [0.0; BAND_COUNT],
+        rain: [0.0; BAND_COUNT],
+        scatters: false,
         transmits: false,
         p_diffuse: 0.0,
-        diffuse_share: [0.0; BAND_COUNT],
-        specular_share: [1.0; BAND_COUNT],
+        diffuse: [0.0; BAND_COUNT],
+        specular: [1.0; BAND_COUNT],
     };
 
     fn of(m: &crate::scene::Material, active: &[bool; BAND_COUNT]) -> Self {
+        let reflected = m.absorption.map(|a| 1.0 - f64::from(a));
         let scattered = m.scattering.map(f64::from);
         let transmitted = m.transmission.map(f64::from);
         let p_diffuse = mean(&scattered, &active.map(f64::from));
+        let each = |f: &dyn Fn(f64) -> f64| std::array::from_fn(|b| reflected[b] * f(scattered[b]));
         Self {
-            reflected: m.absorption.map(|a| 1.0 - f64::from(a)),
-            scattered,
+            reflected,
             transmitted,
+            rain: each(&|s| s),
+            scatters: scattered.iter().any(|&s| s > 0.0),
             transmits: transmitted.iter().any(|&t| t > 0.0),
             p_diffuse,
-            diffuse_share: scattered.map(|s| s / p_diffuse),
-            specular_share: scattered.map(|s| (1.0 - s) / (1.0 - p_diffuse)),
+            diffuse: each(&|s| s / p_diffuse),
+            specular: each(&|s| (1.0 - s) / (1.0 - p_diffuse)),
         }
     }
 }
@@ -312,7 +320,7 @@ impl<'a> Walk<'a> {
         while order < MAX_HITS {
             let remaining = self.max_length_m - travelled;
             let ray = Ray::new(origin.as_vec3(), dir.as_vec3()).with_range(0.0, remaining as f32);
-            let hit = self.scene.bvh().closest_hit(&ray);
+            let hit = self.scene.bvh().closest_triangle(&ray);
             let leg = hit.map_or(remaining, |h| f64::from(h.t));
             let exact = specular && order <= self.exact_order;
             if !(after_diffuse || exact) {
@@ -331,27 +339,35 @@ impl<'a> Walk<'a> {
                 break;
             }
             let point = origin + dir * leg;
-            let normal = hit.normal.as_dvec3();
+            let surfaces = self.scene.surfaces();
+            let group = surfaces.group_of(hit.object, hit.triangle);
+            if group == NO_GROUP {
+                // No area (see `NO_GROUP`): not hit in practice, and it
+                // would reflect nothing.
+                break;
+            }
+            // The plane of the triangle's group: in world space, unit
+            // length and in `f64` already, and its material.
+            let SurfaceGroup {
+                plane: Plane { normal, .. },
+                material,
+            } = *surfaces.group(group);
             // The normal on the side the ray came from.
             let facing = if dir.dot(normal) < 0.0 {
                 normal
             } else {
                 -normal
             };
-            let surface = self.surface(hit.material);
+            let surface = self.surface(material);
             let chance = if order <= ALWAYS_RAIN_ORDER {
                 1.0
             } else {
                 self.rain_chance
             };
-            let scatters = surface.scattered.iter().any(|&s| s > 0.0);
-            if scatters && (chance >= 1.0 || rng.random::<f64>() < chance) {
+            if surface.scatters && (chance >= 1.0 || rng.random::<f64>() < chance) {
                 let mut diffuse = energy;
-                for (d, (r, s)) in diffuse
-                    .iter_mut()
-                    .zip(surface.reflected.iter().zip(&surface.scattered))
-                {
-                    *d *= r * s / chance;
+                for (d, r) in diffuse.iter_mut().zip(&surface.rain) {
+                    *d *= r / chance;
                 }
                 emit(Event::Rain {
                     point: point + facing * self.offset,
@@ -371,7 +387,13 @@ impl<'a> Walk<'a> {
                 }
                 through / (through + back)
             } else {
-                if mean(&surface.reflected, &energy) <= 0.0 {
+                let back: f64 = surface
+                    .reflected
+                    .iter()
+                    .zip(&energy)
+                    .map(|(r, e)| r * e)
+                    .sum();
+                if back <= 0.0 {
                     break;
                 }
                 0.0
@@ -384,13 +406,15 @@ impl<'a> Walk<'a> {
                 after_diffuse = false;
             } else {
                 let diffusely = rng.random::<f64>() < surface.p_diffuse;
-                let shares = if diffusely {
-                    &surface.diffuse_share
+                let factors = if diffusely {
+                    &surface.diffuse
                 } else {
-                    &surface.specular_share
+                    &surface.specular
                 };
-                for ((e, r), share) in energy.iter_mut().zip(&surface.reflected).zip(shares) {
-                    *e *= r * share / (1.0 - p_through);
+                // Divided by the chance of reflecting only where it is not 1.
+                let reflects = 1.0 - p_through;
+                for (e, f) in energy.iter_mut().zip(factors) {
+                    *e *= if p_through > 0.0 { f / reflects } else { *f };
                 }
                 dir = if diffusely {
                     lambert_direction(rng, facing)
