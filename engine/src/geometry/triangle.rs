@@ -15,7 +15,7 @@
 //! every triangle. The moved ray meets no edge, so a ray through an edge or
 //! vertex of a closed mesh hits exactly one of the triangles there.
 
-use glam::Vec3A;
+use glam::{Vec3A, Vec3Swizzles};
 
 use super::Ray;
 
@@ -32,14 +32,16 @@ pub struct TriangleHit {
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     origin: Vec3A,
-    /// Axes permuted so that `kz` is the direction's dominant axis and the
-    /// winding of the sheared triangle keeps its sign.
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    /// The shear as weights of a vertex's coordinates (relative to the
+    /// origin): sheared `x = q[kx] − sx q[kz]`, `y = q[ky] − sy q[kz]`,
+    /// `z = sz q[kz]`, where `kz` is the direction's dominant axis and
+    /// `kx`, `ky` are ordered so the sheared winding keeps its sign. Each
+    /// has one or two non-zero weights, so the sum rounds as the two-term
+    /// expression does (up to the sign of a zero), and no coordinate is
+    /// picked by a run-time index.
+    x: Vec3A,
+    y: Vec3A,
+    z: Vec3A,
 }
 
 /// A vertex in the ray's sheared frame.
@@ -73,24 +75,19 @@ impl WatertightRay {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
+        let weights = |k: usize, along: f32| {
+            let mut w = Vec3A::ZERO;
+            w[k] = 1.0;
+            w[kz] = -along;
+            w
+        };
+        let mut z = Vec3A::ZERO;
+        z[kz] = 1.0 / d[kz];
         Self {
             origin: ray.origin,
-            kx,
-            ky,
-            kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
-        }
-    }
-
-    #[inline(always)]
-    fn shear(&self, p: Vec3A) -> Sheared {
-        let q = (p - self.origin).to_array();
-        Sheared {
-            x: q[self.kx] - self.sx * q[self.kz],
-            y: q[self.ky] - self.sy * q[self.kz],
-            z: self.sz * q[self.kz],
+            x: weights(kx, d[kx] / d[kz]),
+            y: weights(ky, d[ky] / d[kz]),
+            z,
         }
     }
 
@@ -106,22 +103,34 @@ impl WatertightRay {
         t_min: f32,
         t_max: f32,
     ) -> Option<TriangleHit> {
-        let (a, b, c) = (self.shear(a), self.shear(b), self.shear(c));
-        let u = c.x * b.y - c.y * b.x;
-        let v = a.x * c.y - a.y * c.x;
-        let w = b.x * a.y - b.y * a.x;
-        // Non-short-circuit `|` and `&`: one branch each, not one per
-        // comparison; whether a ray meets a triangle does not predict.
-        let negative = (u < 0.0) | (v < 0.0) | (w < 0.0);
-        let positive = (u > 0.0) | (v > 0.0) | (w > 0.0);
-        if negative & positive {
+        // The three corners a coordinate at a time (lanes a, b, c), so one
+        // sheared coordinate of all three takes three products.
+        let (a, b, c) = (a - self.origin, b - self.origin, c - self.origin);
+        let row = |axis: usize| Vec3A::new(a[axis], b[axis], c[axis]);
+        let (qx, qy, qz) = (row(0), row(1), row(2));
+        let shear = |w: Vec3A| qx * w.x + qy * w.y + qz * w.z;
+        let (x, y) = (shear(self.x), shear(self.y));
+        // u = c.x b.y − c.y b.x, v = a.x c.y − a.y c.x, w = b.x a.y − b.y a.x.
+        let uvw = x.zxy() * y.yzx() - y.zxy() * x.yzx();
+        // One branch each, not one per comparison; whether a ray meets a
+        // triangle does not predict.
+        let zero = Vec3A::ZERO;
+        if uvw.cmplt(zero).any() & uvw.cmpgt(zero).any() {
             return None;
         }
-        if (u == 0.0) | (v == 0.0) | (w == 0.0) {
-            return exact_intersect(a, b, c, t_min, t_max);
+        let z = shear(self.z);
+        if uvw.cmpeq(zero).any() {
+            let corner = |i: usize| Sheared {
+                x: x[i],
+                y: y[i],
+                z: z[i],
+            };
+            return exact_intersect(corner(0), corner(1), corner(2), t_min, t_max);
         }
+        let (u, v, w) = (uvw.x, uvw.y, uvw.z);
         let det = u + v + w;
-        let t = (u * a.z + v * b.z + w * c.z) / det;
+        let tz = uvw * z;
+        let t = (tz.x + tz.y + tz.z) / det;
         if !((t >= t_min) & (t <= t_max)) {
             return None;
         }
