@@ -12,7 +12,7 @@ use glam::DVec3;
 
 use super::surfaces::Surfaces;
 use crate::geometry::Ray;
-use crate::query::SceneBvh;
+use crate::query::{NearestTriangle, SceneBvh};
 
 /// One surface event, packed as `group << 1 | transmitted`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -199,10 +199,10 @@ pub(super) fn first_hit(
     mut t_min: f32,
     t_max: f32,
     skip: Option<u32>,
-) -> Option<crate::query::SceneHit> {
+) -> Option<NearestTriangle> {
     let mut last = None;
     for _ in 0..MAX_SKIPPED_HITS {
-        let hit = bvh.closest_hit(&ray.with_range(t_min, t_max))?;
+        let hit = bvh.closest_triangle(&ray.with_range(t_min, t_max))?;
         if Some(surfaces.group_of(hit.object, hit.triangle)) != skip {
             return Some(hit);
         }
