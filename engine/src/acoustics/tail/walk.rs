@@ -7,7 +7,6 @@ use std::ops::Range;
 use glam::{DVec3, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_pcg::Pcg64;
 
 use super::region::Region;
 use super::{Room, TailInput, BIN_S};
@@ -284,7 +283,9 @@ impl<'a> Walk<'a> {
             if i as u64 % CLOCK_PERIOD == 0 {
                 deadline.check()?;
             }
-            hits += self.ray(self.direction(ray), &mut ray_stream(self.seed, ray), emit);
+            let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
+            rng.set_stream(ray as u64);
+            hits += self.ray(self.direction(ray), &mut rng, emit);
         }
         Ok(hits)
     }
@@ -305,7 +306,7 @@ impl<'a> Walk<'a> {
         lattice_direction(ray, self.rays, self.shift, self.turn)
     }
 
-    fn ray(&self, start: DVec3, rng: &mut Pcg64, emit: &mut impl FnMut(Event)) -> u64 {
+    fn ray(&self, start: DVec3, rng: &mut ChaCha8Rng, emit: &mut impl FnMut(Event)) -> u64 {
         let mut origin = self.source;
         let mut dir = start;
         let mut energy = self.start;
@@ -625,16 +626,6 @@ fn unit_hash(values: [f64; 4]) -> f64 {
     (h >> 11) as f64 / (1u64 << 53) as f64
 }
 
-/// The random stream of ray `ray` of seed `seed`: the rays of one seed
-/// each get their own (the seed's bits crossed with an odd multiple of the
-/// ray's index), whose PCG state and increment `seed_from_u64` spreads
-/// from those bits. PCG rather than ChaCha8: its numbers were 7% of a
-/// shoebox tail's time, and the decay times over eight seeds kept their
-/// mean and spread.
-fn ray_stream(seed: u64, ray: usize) -> Pcg64 {
-    Pcg64::seed_from_u64(seed ^ (ray as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15))
-}
-
 /// Point `ray` of the spherical Fibonacci lattice of `rays` points, its
 /// height `shift` (in `[0, 1)`) of the way down its stratum and its
 /// azimuth turned by `turn`: stratum `ray` is the band of heights
@@ -648,7 +639,7 @@ fn lattice_direction(ray: usize, rays: usize, shift: f64, turn: f64) -> DVec3 {
 
 /// A direction in the hemisphere around `normal`, with density
 /// proportional to the cosine from it (Lambert's law).
-fn lambert_direction(rng: &mut Pcg64, normal: DVec3) -> DVec3 {
+fn lambert_direction(rng: &mut ChaCha8Rng, normal: DVec3) -> DVec3 {
     let (u, v) = normal.any_orthonormal_pair();
     let r2 = rng.random::<f64>();
     let phi = 2.0 * PI * rng.random::<f64>();
