@@ -277,6 +277,13 @@ fn the_nearest_triangle_is_the_nearest_crossing() {
         let [(t, owner, clear), rest @ ..] = &crossings[..] else {
             panic!("every ray leaves the room: {ray:?}");
         };
+        // Grazing rays and near ties too: the full hit's distance, object
+        // and triangle.
+        let full = bvh.closest_hit(&ray).map(|h| (h.t, h.object, h.triangle));
+        let lean = bvh
+            .closest_triangle(&ray)
+            .map(|h| (h.t, h.object, h.triangle));
+        assert_eq!(lean, full, "{ray:?}");
         if !clear || rest.first().is_some_and(|next| next.0 - t < 1e-3) {
             continue;
         }

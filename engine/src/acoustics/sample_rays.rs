@@ -2,8 +2,9 @@
 //! triangles ([`CellAssignment::Sampled`](super::tracer::CellAssignment)):
 //! every cell corner and every cell centre casts one ray through the
 //! scene's BVH, and a cell goes to the plane groups its five rays meet
-//! first. The rays are the engine's ordinary closest-hit queries (4-wide
-//! tree, watertight test), so a ray through the edge between two triangles
+//! first. The rays are the engine's ordinary nearest-triangle queries
+//! (`SceneBvh::closest_triangle`: the 8-wide tree where the CPU has AVX,
+//! the watertight test), so a ray through the edge between two triangles
 //! meets exactly one of them; the work per frustum is bounded by the ray
 //! count however many triangles the frustum covers.
 

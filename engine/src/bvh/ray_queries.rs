@@ -130,18 +130,22 @@ pub(crate) const BOUND_SLACK: f32 = 1.0 / 65536.0;
 /// cases of [`BOUND_SLACK`]).
 #[inline]
 pub(crate) fn closest_hit<M: LeafTriangles>(mesh: &M, ray: &Ray) -> Option<MeshHit> {
-    let mut nearest = Nearest::new(mesh);
-    walk(mesh, ray, |slot, h, t_max| nearest.offer(slot, h, t_max));
-    nearest.hit()
+    nearest_on_slot(mesh, ray).map(|(slot, h)| mesh_hit(mesh, slot, h))
 }
 
 /// [`closest_hit`]'s distance and leaf slot alone, for callers that know
 /// their triangles' planes: no hit point, barycentrics or normal.
 #[inline]
 pub(crate) fn closest_slot<M: LeafTriangles>(mesh: &M, ray: &Ray) -> Option<(f32, u32)> {
+    nearest_on_slot(mesh, ray).map(|(slot, h)| (h.t, slot))
+}
+
+/// The nearest hit (see [`closest_hit`]) and its leaf slot.
+#[inline(always)]
+fn nearest_on_slot<M: LeafTriangles>(mesh: &M, ray: &Ray) -> Option<(u32, TriangleHit)> {
     let mut nearest = Nearest::new(mesh);
     walk(mesh, ray, |slot, h, t_max| nearest.offer(slot, h, t_max));
-    nearest.best.map(|(slot, h)| (h.t, slot))
+    nearest.best
 }
 
 /// [`closest_hit`] among the triangles of the subtrees `open` lets the walk

@@ -407,7 +407,10 @@ fn leg_clear(scene: EdgeScene<'_>, from: DVec3, to: DVec3, skip: &[u32]) -> bool
     let ray = Ray::segment(from.as_vec3(), to.as_vec3());
     let mut t_min = LEG_END;
     for _ in 0..MAX_SKIPS {
-        let Some(hit) = scene.bvh.closest_hit(&ray.with_range(t_min, 1.0 - LEG_END)) else {
+        let Some(hit) = scene
+            .bvh
+            .closest_triangle(&ray.with_range(t_min, 1.0 - LEG_END))
+        else {
             return true;
         };
         if !skip.contains(&scene.surfaces.group_of(hit.object, hit.triangle)) {

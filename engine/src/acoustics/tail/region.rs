@@ -60,7 +60,7 @@ impl Region {
                     .with_range(0.0, max as f32);
                 let hit = scene
                     .bvh()
-                    .closest_hit(&ray)
+                    .closest_triangle(&ray)
                     .map_or(max, |h| f64::from(h.t));
                 hit.clamp(min, max)
             })

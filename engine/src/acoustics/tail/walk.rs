@@ -157,8 +157,9 @@ struct Surface {
     transmitted: Energy,
     /// The diffusely reflected share, `(1 − α) s`: the rain's.
     rain: Energy,
-    /// Whether any band scatters, or passes through.
+    /// Whether any band scatters.
     scatters: bool,
+    /// Whether any band passes through.
     transmits: bool,
     /// The chance a reflection is diffuse: the scattering's mean over the
     /// active bands.
@@ -342,12 +343,14 @@ impl<'a> Walk<'a> {
             let surfaces = self.scene.surfaces();
             let group = surfaces.group_of(hit.object, hit.triangle);
             if group == NO_GROUP {
-                // No area (see `NO_GROUP`): not hit in practice, and it
-                // would reflect nothing.
+                // A triangle of no area (see `NO_GROUP`) is not hit in
+                // practice; should rounding report one, the ray ends there
+                // rather than reflect off a plane it does not have.
                 break;
             }
-            // The plane of the triangle's group: in world space, unit
-            // length and in `f64` already, and its material.
+            // The plane of the triangle's group, in world space, unit
+            // length and in `f64` already (the triangle's own normal to
+            // within the grouping's 1e-5 rounding), and its material.
             let SurfaceGroup {
                 plane: Plane { normal, .. },
                 material,
