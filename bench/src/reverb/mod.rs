@@ -51,9 +51,10 @@ pub struct Args {
     /// Seed of the tail's rays.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Box rooms without scattering also run the tail with this many seeds
-    /// (`seed`, `seed + 1`, ...; untimed) and report each band's decay
-    /// times' differences from the exact image sources over them: the
+    /// Every scene also runs the tail with this many seeds (`seed`,
+    /// `seed + 1`, ...; untimed) and reports each band's decay times'
+    /// differences over them from the exact image sources (box rooms
+    /// without scattering) or from their own mean (the others): the
     /// estimator's spread, which one seed cannot show.
     #[arg(long, default_value_t = 1)]
     seeds: u64,
@@ -143,29 +144,34 @@ struct Run {
     pyroomacoustics_threads: Option<usize>,
     pyroomacoustics_version: Option<String>,
     bands: Vec<Band>,
-    /// Over `--seeds` seeds, where there are exact image sources.
+    /// Over `--seeds` seeds: against the exact image sources where there
+    /// are some, else against the seeds' own mean (the estimator's noise).
     seed_spread: Option<Vec<SeedSpread>>,
     #[serde(skip)]
     curves: plot::Curves,
 }
 
-/// Differences from the exact image sources in JND over several seeds:
-/// per parameter (EDT, T20, T30) the mean, least and greatest.
+/// Differences in JND over several seeds from the exact image sources, or
+/// where there are none from the mean of the seeds: per parameter (EDT,
+/// T20, T30) the mean, least, greatest and standard deviation.
 #[derive(Serialize)]
 struct SeedSpread {
     band_hz: f32,
     seeds: u64,
-    edt: [f64; 3],
-    t20: [f64; 3],
-    t30: [f64; 3],
+    against_exact: bool,
+    edt: [f64; 4],
+    t20: [f64; 4],
+    t30: [f64; 4],
 }
 
-/// Mean, least and greatest of `values` (not empty).
-fn spread(values: &[f64]) -> [f64; 3] {
-    let mean = values.iter().sum::<f64>() / values.len() as f64;
+/// Mean, least, greatest and standard deviation of `values` (not empty).
+fn spread(values: &[f64]) -> [f64; 4] {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
     let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    [mean, lo, hi]
+    let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
+    [mean, lo, hi, sd]
 }
 
 #[derive(Serialize)]
@@ -272,15 +278,16 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
         .as_ref()
         .filter(|_| specular)
         .map(|walls| walls.image_sources(bench.source, bench.listener, speed, args.length));
-    let seed_spread = match &exact {
-        Some(exact) if args.seeds > 1 => Some(seed_spread(
+    let seed_spread = if args.seeds > 1 {
+        Some(seed_spread(
             &scene,
             (source, listener),
             &options,
-            exact,
+            exact.as_deref(),
             args,
-        )?),
-        _ => None,
+        )?)
+    } else {
+        None
     };
     let peer = peer.map(|mut hybrid: pyroom::Hybrid| {
         hybrid.ms = median(peer_ms);
@@ -355,18 +362,22 @@ fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, Str
     })
 }
 
-/// The decay times' differences from `exact` (per band, as
-/// `BoxWalls::image_sources` gives them) in JND over `args.seeds` seeds of
-/// the tail, the other options as `options`.
+/// Per band, the exact image sources' parameters and echogram.
+type ExactBands = [(RoomParameters, Vec<(f64, f64)>)];
+
+/// The decay times' differences in JND over `args.seeds` seeds of the
+/// tail, the other options as `options`, from `exact` (per band, as
+/// `BoxWalls::image_sources` gives them) or without it from the mean of
+/// the seeds.
 fn seed_spread(
     scene: &AcousticScene,
     (source, listener): (glam::Vec3, glam::Vec3),
     options: &SimulationOptions,
-    exact: &[(RoomParameters, Vec<(f64, f64)>)],
+    exact: Option<&ExactBands>,
     args: &Args,
 ) -> Result<Vec<SeedSpread>, String> {
-    // Per band, per parameter, one difference per seed.
-    let mut diffs = vec![[Vec::new(), Vec::new(), Vec::new()]; BAND_COUNT];
+    // Per band, per parameter (EDT, T20, T30), the value of each seed.
+    let mut values = vec![[Vec::new(), Vec::new(), Vec::new()]; BAND_COUNT];
     for seed in args.seed..args.seed + args.seeds {
         let mut options = options.clone();
         if let Tail::Stochastic(tail) = &mut options.tail {
@@ -379,27 +390,38 @@ fn seed_spread(
             let Some(band) = OCTAVE_BANDS_HZ.iter().position(|&hz| hz == b.band_hz) else {
                 continue;
             };
-            let (p, e) = (&b.parameters, &exact[band].0);
-            for (k, (f, x)) in [(p.edt_s, e.edt_s), (p.t20_s, e.t20_s), (p.t30_s, e.t30_s)]
-                .into_iter()
-                .enumerate()
-            {
-                if let Some(d) = jnd(f, x, true, jnd::DECAY) {
-                    diffs[band][k].push(d);
-                }
+            let p = &b.parameters;
+            for (k, v) in [p.edt_s, p.t20_s, p.t30_s].into_iter().enumerate() {
+                values[band][k].extend(v);
             }
         }
     }
-    Ok(diffs
+    let reference = |band: usize, k: usize, own: &[f64]| match exact {
+        Some(exact) => {
+            let e = &exact[band].0;
+            [e.edt_s, e.t20_s, e.t30_s][k]
+        }
+        None => Some(own.iter().sum::<f64>() / own.len() as f64),
+    };
+    let diffs = |band: usize, k: usize, own: &[f64]| -> Vec<f64> {
+        own.iter()
+            .filter_map(|&v| jnd(Some(v), reference(band, k, own), true, jnd::DECAY))
+            .collect()
+    };
+    Ok(values
         .iter()
         .enumerate()
-        .filter(|(_, d)| d.iter().all(|v| !v.is_empty()))
-        .map(|(band, [edt, t20, t30])| SeedSpread {
-            band_hz: OCTAVE_BANDS_HZ[band],
-            seeds: args.seeds,
-            edt: spread(edt),
-            t20: spread(t20),
-            t30: spread(t30),
+        .filter(|(_, v)| v.iter().all(|v| !v.is_empty()))
+        .filter_map(|(band, [edt, t20, t30])| {
+            let [edt, t20, t30] = [(0, edt), (1, t20), (2, t30)].map(|(k, v)| diffs(band, k, v));
+            (!edt.is_empty() && !t20.is_empty() && !t30.is_empty()).then(|| SeedSpread {
+                band_hz: OCTAVE_BANDS_HZ[band],
+                seeds: args.seeds,
+                against_exact: exact.is_some(),
+                edt: spread(&edt),
+                t20: spread(&t20),
+                t30: spread(&t30),
+            })
         })
         .collect())
 }
@@ -546,13 +568,19 @@ fn table(runs: &[Run], provenance: &Provenance, args: &Args) -> String {
         out += &aligned(&rows, 0);
         if let Some(spread) = &run.seed_spread {
             let seeds = spread.first().map_or(0, |s| s.seeds);
+            let against = if spread.first().is_some_and(|s| s.against_exact) {
+                "exact"
+            } else {
+                "the seeds' mean"
+            };
             out += &format!(
-                "over {seeds} seeds ({}..{}, untimed): frusta - exact in JND, mean [least, greatest]\n",
+                "over {seeds} seeds ({}..{}, untimed): frusta - {against} in JND, mean [least, greatest] sd\n",
                 args.seed,
                 args.seed + seeds - 1
             );
             let mut rows = vec![["band Hz", "EDT", "T20", "T30"].map(String::from).to_vec()];
-            let cell = |s: &[f64; 3]| format!("{:+.1} [{:+.1}, {:+.1}]", s[0], s[1], s[2]);
+            let cell =
+                |s: &[f64; 4]| format!("{:+.1} [{:+.1}, {:+.1}] {:.1}", s[0], s[1], s[2], s[3]);
             for s in spread {
                 rows.push(vec![
                     format!("{}", s.band_hz),
