@@ -177,6 +177,24 @@ fn triangles_in_frame_f64(scene: &Scene, frame: usize) -> Vec<Vec<[DVec3; 3]>> {
         .collect()
 }
 
+/// Every object's triangles in world space (frame 0, the room's, must be
+/// the world), in f64, with their object and mesh triangle.
+fn world_triangles(scene: &Scene) -> Vec<([DVec3; 3], (u32, u32))> {
+    assert!(
+        scene.objects[0].transform.is_identity(),
+        "frame 0 is the world"
+    );
+    triangles_in_frame_f64(scene, 0)
+        .into_iter()
+        .enumerate()
+        .flat_map(|(o, tris)| {
+            tris.into_iter()
+                .enumerate()
+                .map(move |(t, c)| (c, (o as u32, t as u32)))
+        })
+        .collect()
+}
+
 /// Möller–Trumbore in f64: `(t, u, v)` of the ray's crossing of the
 /// triangle's plane, if the plane is crossed.
 fn crossing(o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]) -> Option<(f64, f64, f64)> {
@@ -196,20 +214,8 @@ fn crossing(o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]) -> Option<(f64, f64, f64)
 #[test]
 fn all_hits_are_every_triangle_a_ray_crosses() {
     let scene = test_scene();
-    assert!(
-        scene.objects[0].transform.is_identity(),
-        "frame 0 is the world"
-    );
     let bvh = SceneBvh::build(&scene, &BuildOptions::default());
-    let world: Vec<([DVec3; 3], (u32, u32))> = triangles_in_frame_f64(&scene, 0)
-        .into_iter()
-        .enumerate()
-        .flat_map(|(o, tris)| {
-            tris.into_iter()
-                .enumerate()
-                .map(move |(t, c)| (c, (o as u32, t as u32)))
-        })
-        .collect();
+    let world = world_triangles(&scene);
     let mut rng = Rng(77);
     let mut clear_hits = 0;
     for _ in 0..2_000 {
@@ -248,15 +254,7 @@ fn all_hits_are_every_triangle_a_ray_crosses() {
 fn the_nearest_triangle_is_the_nearest_crossing() {
     let scene = test_scene();
     let bvh = SceneBvh::build(&scene, &BuildOptions::default());
-    let world: Vec<([DVec3; 3], (u32, u32))> = triangles_in_frame_f64(&scene, 0)
-        .into_iter()
-        .enumerate()
-        .flat_map(|(o, tris)| {
-            tris.into_iter()
-                .enumerate()
-                .map(move |(t, c)| (c, (o as u32, t as u32)))
-        })
-        .collect();
+    let world = world_triangles(&scene);
     let mut rng = Rng(91);
     let (mut checked, mut on_objects) = (0, 0);
     for _ in 0..2_000 {
