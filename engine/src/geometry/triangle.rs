@@ -295,4 +295,102 @@ mod tests {
             assert_eq!(n, 1, "origin {o}");
         }
     }
+
+    /// The paper's test as written (Woop et al. 2013, listing 1): each
+    /// corner sheared by picking its coordinates with the ray's axis
+    /// indices, then the same decisions as [`WatertightRay::intersect`].
+    fn by_axis_indices(o: Vec3, d: Vec3, [a, b, c]: [Vec3; 3]) -> Option<TriangleHit> {
+        // The dominant axis, ties broken as `WatertightRay::new` does.
+        let m = d.abs();
+        let kz = match (m.x > m.y, m.x > m.z, m.y > m.z) {
+            (true, true, _) => 0,
+            (false, _, true) => 1,
+            _ => 2,
+        };
+        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        let shear = |p: Vec3| {
+            let q = p - o;
+            Sheared {
+                x: q[kx] - sx * q[kz],
+                y: q[ky] - sy * q[kz],
+                z: sz * q[kz],
+            }
+        };
+        let (a, b, c) = (shear(a), shear(b), shear(c));
+        let u = c.x * b.y - c.y * b.x;
+        let v = a.x * c.y - a.y * c.x;
+        let w = b.x * a.y - b.y * a.x;
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            return exact_intersect(a, b, c, 0.0, f32::INFINITY);
+        }
+        let det = u + v + w;
+        let t = (u * a.z + v * b.z + w * c.z) / det;
+        let inv = 1.0 / det;
+        (t >= 0.0).then_some(TriangleHit {
+            t,
+            u: v * inv,
+            v: w * inv,
+        })
+    }
+
+    /// The corners' coordinates as weighted rows give the paper's sheared
+    /// corners, so the same hits to the bit: rays of every dominant axis
+    /// and sign, with zero and tiny direction components, through
+    /// triangles' insides, edges and corners.
+    #[test]
+    fn shearing_by_rows_answers_as_the_paper_to_the_bit() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut unit = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut checked = 0;
+        for i in 0..20_000 {
+            let tri = [0; 3].map(|_| Vec3::new(unit(), unit(), unit()) * 4.0);
+            let mut d = Vec3::new(unit(), unit(), unit());
+            // Zero and tiny components, and each axis dominant in turn.
+            match i % 5 {
+                0 => d[i % 3] = 0.0,
+                1 => d[(i + 1) % 3] = 1e-30,
+                2 => d[i % 3] *= 100.0,
+                _ => {}
+            }
+            // Aim at the inside, an edge or a corner.
+            let (w1, w2) = match i % 3 {
+                0 => (0.25, 0.25),
+                1 => (0.5, 0.0),
+                _ => (0.0, 0.0),
+            };
+            let target = tri[0] + (tri[1] - tri[0]) * w1 + (tri[2] - tri[0]) * w2;
+            let o = if i % 2 == 0 {
+                target - d * 3.0
+            } else {
+                Vec3::new(unit(), unit(), unit()) * 5.0
+            };
+            let mine = WatertightRay::new(&Ray::new(o, d)).intersect(
+                tri[0].into(),
+                tri[1].into(),
+                tri[2].into(),
+                0.0,
+                f32::INFINITY,
+            );
+            let bits = |h: Option<TriangleHit>| h.map(|h| [h.t, h.u, h.v].map(|x| x.to_bits()));
+            assert_eq!(
+                bits(mine),
+                bits(by_axis_indices(o, d, tri)),
+                "{o} {d} {tri:?}"
+            );
+            checked += usize::from(mine.is_some());
+        }
+        assert!(checked > 5_000, "{checked} hits");
+    }
 }
