@@ -121,18 +121,18 @@ pub(super) fn along<T: Real>(v: &V<T>, n: DVec3, rounding: DVec3) -> (T, T) {
     (dot, T::of(rounding.dot(an)) + size * T::of(6.0 * T::UNIT))
 }
 
-/// Where the plane with normal `n` lies against `values`, whose
-/// coordinates are within `rounding` of exact; the dot products' own
-/// rounding is added.
+/// Where the plane with normal `n` lies against eight values given
+/// coordinate by coordinate (`[axis][corner]`), whose coordinates are
+/// within `rounding` of exact; the dot products' own rounding is added.
 #[inline(always)]
-pub(super) fn side_of_plane<T: Real>(values: &[V<T>; 8], n: DVec3, rounding: DVec3) -> Side {
+pub(super) fn side_of_plane(values: &[[f64; 8]; 3], n: DVec3, rounding: DVec3) -> Side {
     let (mut above, mut below, mut clear) = (true, true, true);
-    let zero = T::of(0.0);
-    for v in values {
-        let (dot, margin) = along(v, n, rounding);
-        above &= (zero - dot).lt(margin);
-        below &= dot.lt(margin);
-        clear &= dot.gt(margin) || (zero - dot).gt(margin);
+    let [xs, ys, zs] = values;
+    for (i, &x) in xs.iter().enumerate() {
+        let (dot, margin) = along(&[x, ys[i], zs[i]], n, rounding);
+        above &= -dot < margin;
+        below &= dot < margin;
+        clear &= dot > margin || -dot > margin;
     }
     if clear && (above || below) {
         Side::Apart
