@@ -24,10 +24,6 @@ pub(super) trait Real:
     fn abs(self) -> Self;
     /// `self > other`; false where either is NaN.
     fn gt(self, other: Self) -> bool;
-    /// `self < other`; false where either is NaN.
-    fn lt(self, other: Self) -> bool {
-        other.gt(self)
-    }
 }
 
 impl Real for f64 {
@@ -72,6 +68,10 @@ impl Real for TwoFloat {
 }
 
 pub(super) type V<T> = [T; 3];
+
+/// F at a box's eight corners, coordinate by coordinate (`[axis][corner]`):
+/// every test runs over eight contiguous numbers, two AVX registers.
+pub(super) type Corners = [[f64; 8]; 3];
 
 /// `a + s (b − a)`, the form whose rounding the bounds below count.
 #[inline(always)]
@@ -125,7 +125,7 @@ pub(super) fn along<T: Real>(v: &V<T>, n: DVec3, rounding: DVec3) -> (T, T) {
 /// coordinate by coordinate (`[axis][corner]`), whose coordinates are
 /// within `rounding` of exact; the dot products' own rounding is added.
 #[inline(always)]
-pub(super) fn side_of_plane(values: &[[f64; 8]; 3], n: DVec3, rounding: DVec3) -> Side {
+pub(super) fn side_of_plane(values: &Corners, n: DVec3, rounding: DVec3) -> Side {
     let (mut above, mut below, mut clear) = (true, true, true);
     let [xs, ys, zs] = values;
     for (i, &x) in xs.iter().enumerate() {
@@ -145,21 +145,19 @@ pub(super) fn side_of_plane(values: &[[f64; 8]; 3], n: DVec3, rounding: DVec3) -
 
 /// The same for a coordinate plane, given that coordinate's values.
 #[inline(always)]
-pub(super) fn side_of_axis<T: Real>(values: &[T; 8], rounding: f64) -> Side {
-    let zero = T::of(0.0);
+pub(super) fn side_of_axis(values: &[f64; 8], rounding: f64) -> Side {
     let (mut lo, mut hi) = (values[0], values[0]);
     for &v in &values[1..] {
-        if v.lt(lo) {
+        if v < lo {
             lo = v;
         }
-        if v.gt(hi) {
+        if v > hi {
             hi = v;
         }
     }
-    let r = T::of(rounding);
-    if lo.gt(r) || (zero - hi).gt(r) {
+    if lo > rounding || 0.0 - hi > rounding {
         Side::Apart
-    } else if (zero - lo).lt(r) || hi.lt(r) {
+    } else if 0.0 - lo < rounding || hi < rounding {
         Side::InDoubt
     } else {
         Side::Straddles
