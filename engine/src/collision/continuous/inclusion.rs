@@ -34,6 +34,7 @@ use twofloat::TwoFloat;
 use super::arithmetic::{
     along, lerp, magnitude, moving, rounding, side_of_axis, side_of_plane, Corners, Real, Side,
 };
+use super::memo::ExactMemo;
 
 /// How close two primitives must come to count as touching, and how much
 /// work one test may do.
@@ -89,7 +90,7 @@ const EDGE_EDGE_ROUNDING: f64 = 48.0;
 const VERTEX_FACE_ROUNDING: f64 = 96.0;
 
 /// What a primitive pair gives the search.
-trait Primitives {
+pub(super) trait Primitives {
     /// Coordinate `axis` of F at the eight corners of `d`, index
     /// `4 t + 2 u + v` (F is computed coordinate by coordinate, so a
     /// coordinate alone costs a third of the vector).
@@ -298,21 +299,13 @@ fn exact_quantity<P: Primitives>(
     quantity: Quantity,
     exact_rounding: DVec3,
     i: usize,
+    memo: &mut ExactMemo,
 ) -> (TwoFloat, TwoFloat) {
     let (t, u, v) = corner(d, i);
+    let mut at = |axis| memo.coordinate(primitives, axis, t, u, v);
     match quantity {
-        Quantity::Axis(axis) => (
-            primitives.at(axis, t, u, v),
-            TwoFloat::from(exact_rounding[axis]),
-        ),
-        Quantity::Along(normal) => {
-            let f = [
-                primitives.at(0, t, u, v),
-                primitives.at(1, t, u, v),
-                primitives.at(2, t, u, v),
-            ];
-            along(&f, normal, exact_rounding)
-        }
+        Quantity::Axis(axis) => (at(axis), TwoFloat::from(exact_rounding[axis])),
+        Quantity::Along(normal) => along(&[at(0), at(1), at(2)], normal, exact_rounding),
     }
 }
 
@@ -328,6 +321,7 @@ fn exactly_on_one_side<P: Primitives>(
     quantity: Quantity,
     exact_rounding: DVec3,
     approx: &[(f64, f64); 8],
+    memo: &mut ExactMemo,
 ) -> bool {
     // A corner computed again for one side is kept for the other.
     let mut known: [Option<(TwoFloat, TwoFloat)>; 8] = [None; 8];
@@ -350,7 +344,7 @@ fn exactly_on_one_side<P: Primitives>(
             let (q, m) = match known[i] {
                 Some(known) => known,
                 None => {
-                    let exact = exact_quantity(primitives, d, quantity, exact_rounding, i);
+                    let exact = exact_quantity(primitives, d, quantity, exact_rounding, i, memo);
                     known[i] = Some(exact);
                     exact
                 }
@@ -379,6 +373,7 @@ fn box_is_apart<P: Primitives>(
     d: &Domain,
     values: &Corners,
     exactness: &Exactness,
+    memo: &mut ExactMemo,
 ) -> bool {
     let [rounding, exact_rounding] = exactness.rounding;
     let axes = [
@@ -403,7 +398,7 @@ fn box_is_apart<P: Primitives>(
             *a = (x, rounding[axis]);
         }
         let quantity = Quantity::Axis(axis);
-        if exactly_on_one_side(primitives, d, quantity, exact_rounding, &approx) {
+        if exactly_on_one_side(primitives, d, quantity, exact_rounding, &approx, memo) {
             return true;
         }
     }
@@ -416,7 +411,7 @@ fn box_is_apart<P: Primitives>(
         *a = along(&corner_value(values, i).to_array(), normal, rounding);
     }
     let quantity = Quantity::Along(normal);
-    exactly_on_one_side(primitives, d, quantity, exact_rounding, &approx)
+    exactly_on_one_side(primitives, d, quantity, exact_rounding, &approx, memo)
 }
 
 /// Whether this CPU runs the search compiled for AVX2 and FMA (std caches
@@ -451,6 +446,7 @@ pub struct CcdScratch {
     /// Boxes of the second phase by earliest time first, then deepest
     /// first; `t ≥ 0`, so the bits of `t` order as the numbers do.
     queue: BinaryHeap<(Reverse<u64>, u32, Boxed)>,
+    memo: ExactMemo,
 }
 
 /// A parameter box in the queue, with the order the heap needs (ties
@@ -493,9 +489,10 @@ fn step<P: Primitives>(
     d: &Domain,
     exactness: &Exactness,
     options: &CcdOptions,
+    memo: &mut ExactMemo,
 ) -> Step {
     let values = primitives.corners(d);
-    if box_is_apart(primitives, d, &values, exactness) {
+    if box_is_apart(primitives, d, &values, exactness, memo) {
         return Step::Apart;
     }
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -594,6 +591,7 @@ impl CcdScratch {
         options: &CcdOptions,
     ) -> Option<f64> {
         let exactness = Exactness::of(primitives);
+        self.memo.start();
         let in_domain = |d: &Domain| !P::SIMPLEX || d[1][0] + d[2][0] <= 1.0;
         self.stack.clear();
         self.queue.clear();
@@ -607,7 +605,7 @@ impl CcdScratch {
                 // is excluded.
                 return Some(self.stack.iter().map(|d| d[0][0]).fold(d[0][0], f64::min));
             }
-            match step(primitives, &d, &exactness, options) {
+            match step(primitives, &d, &exactness, options, &mut self.memo) {
                 Step::Apart => {}
                 Step::Contact => {
                     first = Some(d[0][0]);
@@ -631,7 +629,7 @@ impl CcdScratch {
                 return Some(d[0][0]);
             }
             d[0][1] = d[0][1].min(best);
-            match step(primitives, &d, &exactness, options) {
+            match step(primitives, &d, &exactness, options, &mut self.memo) {
                 Step::Apart => {}
                 Step::Contact => return Some(d[0][0]),
                 Step::Split(halves) => {

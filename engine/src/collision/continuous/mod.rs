@@ -8,6 +8,7 @@
 
 mod arithmetic;
 mod inclusion;
+mod memo;
 mod sample_queries;
 
 use std::ops::ControlFlow;
