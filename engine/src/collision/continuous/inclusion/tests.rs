@@ -49,6 +49,26 @@ fn a_vertex_passing_exactly_through_an_edge_hits() {
     assert!(toi_vf(&q).is_some());
 }
 
+/// The portable search's answer, checked equal to the bit to the AVX2
+/// search's.
+#[cfg(target_arch = "x86_64")]
+fn both_searches<P: Primitives + std::fmt::Debug>(
+    scratch: &mut [CcdScratch; 2],
+    query: &P,
+    options: &CcdOptions,
+) -> Option<f64> {
+    let portable = scratch[0].search_inlined(query, options);
+    assert!(avx2_fma_available());
+    // SAFETY: checked on the line above.
+    let avx2 = unsafe { scratch[1].search_avx2(query, options) };
+    assert_eq!(
+        portable.map(f64::to_bits),
+        avx2.map(f64::to_bits),
+        "{query:?}"
+    );
+    portable
+}
+
 /// The AVX2 search and the portable one give the same answers to the
 /// bit, near misses and touches decided in double-double included.
 #[cfg(target_arch = "x86_64")]
@@ -70,7 +90,7 @@ fn the_avx2_search_answers_as_the_portable_one() {
         ) / 8.0
     };
     let options = CcdOptions::default();
-    let (mut portable, mut avx2) = (CcdScratch::default(), CcdScratch::default());
+    let mut scratch = [CcdScratch::default(), CcdScratch::default()];
     let mut contacts = [0; 2];
     for n in 0..400 {
         let mut p = [[DVec3::ZERO; 2]; 4];
@@ -88,22 +108,8 @@ fn the_avx2_search_answers_as_the_portable_one() {
             a: [p[0], p[1]],
             b: [p[2], p[3]],
         };
-        let portable_vf = portable.search_inlined(&vf, &options);
-        // SAFETY: checked above.
-        let avx2_vf = unsafe { avx2.search_avx2(&vf, &options) };
-        assert_eq!(
-            portable_vf.map(f64::to_bits),
-            avx2_vf.map(f64::to_bits),
-            "{vf:?}"
-        );
-        let portable_ee = portable.search_inlined(&ee, &options);
-        // SAFETY: checked above.
-        let avx2_ee = unsafe { avx2.search_avx2(&ee, &options) };
-        assert_eq!(
-            portable_ee.map(f64::to_bits),
-            avx2_ee.map(f64::to_bits),
-            "{ee:?}"
-        );
+        let portable_vf = both_searches(&mut scratch, &vf, &options);
+        let portable_ee = both_searches(&mut scratch, &ee, &options);
         contacts[0] += usize::from(portable_vf.is_some());
         contacts[1] += usize::from(portable_ee.is_some());
     }
