@@ -57,37 +57,28 @@ impl WatertightRay {
     /// direction (see [`Ray::is_valid`]).
     #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.dir;
-        let a = d.abs();
-        let kz = if a.x > a.y {
-            if a.x > a.z {
-                0
-            } else {
-                2
-            }
-        } else if a.y > a.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let d = ray.dir.to_array();
+        let a = ray.dir.abs();
+        // The largest axis, and the others' order, by bit operations and
+        // arrays, not branches: a random direction's axes do not predict.
+        let x_largest = (a.x > a.y) & (a.x > a.z);
+        let y_largest = !(a.x > a.y) & (a.y > a.z);
+        let kz = 2 - 2 * usize::from(x_largest) - usize::from(y_largest);
+        let flip = usize::from(d[kz] < 0.0);
+        let (kx, ky) = ((kz + 1 + flip) % 3, (kz + 2 - flip) % 3);
         let weights = |k: usize, along: f32| {
-            let mut w = Vec3A::ZERO;
+            let mut w = [0.0; 3];
             w[k] = 1.0;
             w[kz] = -along;
-            w
+            Vec3A::from_array(w)
         };
-        let mut z = Vec3A::ZERO;
+        let mut z = [0.0; 3];
         z[kz] = 1.0 / d[kz];
         Self {
             origin: ray.origin,
             x: weights(kx, d[kx] / d[kz]),
             y: weights(ky, d[ky] / d[kz]),
-            z,
+            z: Vec3A::from_array(z),
         }
     }
 

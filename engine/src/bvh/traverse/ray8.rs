@@ -9,8 +9,8 @@ use std::arch::x86_64::{
 };
 
 use super::ray::EXIT_SCALE;
-use super::wide::{walk_nodes, WideWalk};
-use super::{Flow, RayTest, Slot, STACK_SIZE};
+use super::wide::{walk_nodes, WideWalk, LEAF_REF};
+use super::{Flow, RayTest, STACK_SIZE};
 use crate::bvh::wide::Bvh8;
 use crate::geometry::Ray;
 
@@ -76,9 +76,21 @@ impl WideWalk for RayWalk8<'_> {
         }
     }
 
+    /// Leaf or inner picked without a branch: which a kept slot holds
+    /// does not predict (a mispredict per node in a hall's incoherent
+    /// rays).
     #[inline(always)]
-    fn slot(&self, node: usize, slot: usize) -> Slot {
-        self.tree.nodes[node].slot(slot)
+    fn entry(&self, node: usize, slot: usize) -> Option<u32> {
+        let n = &self.tree.nodes[node];
+        let (child, count) = (n.child[slot], n.count[slot]);
+        let leaf = LEAF_REF | (node as u32) << Self::SLOT_BITS | slot as u32;
+        // `if count != 0 { leaf } else { child }` by a mask: LLVM keeps
+        // the `if` a branch.
+        if (child == u32::MAX) & (count == 0) {
+            return None;
+        }
+        let is_leaf = u32::from(count != 0).wrapping_neg();
+        Some(child ^ ((child ^ leaf) & is_leaf))
     }
 
     #[inline(always)]

@@ -140,7 +140,9 @@ pub(crate) trait WideWalk {
     /// The keys of node `node`'s slot boxes and a mask of those kept under
     /// `bound` (empty slots may be among them: see [`walk_nodes`]).
     fn test(&self, node: usize, bound: f32) -> (Self::Keys, u32);
-    fn slot(&self, node: usize, slot: usize) -> Slot;
+    /// The stack entry of `slot` of `node`: its child node's index, or
+    /// [`LEAF_REF`] with the node and slot for a leaf; `None` when empty.
+    fn entry(&self, node: usize, slot: usize) -> Option<u32>;
     fn prefetch(&self, node: usize);
 }
 
@@ -170,8 +172,12 @@ impl<W: WideTree, T: NodeTest> WideWalk for Four<'_, W, T> {
     }
 
     #[inline(always)]
-    fn slot(&self, node: usize, slot: usize) -> Slot {
-        self.tree.slot(node, slot)
+    fn entry(&self, node: usize, slot: usize) -> Option<u32> {
+        match self.tree.slot(node, slot) {
+            Slot::Empty => None,
+            Slot::Inner(child) => Some(child),
+            Slot::Leaf => Some(LEAF_REF | (node as u32) << Self::SLOT_BITS | slot as u32),
+        }
     }
 
     #[inline(always)]
@@ -212,10 +218,8 @@ pub(crate) fn walk_nodes<W: WideWalk, const STACK: usize>(
             // Empty slots whatever the test says: a test with NaN in its
             // planes (a frustum from a source at 3e38 m) kept their empty
             // boxes, and the slot's marker read as a leaf out of bounds.
-            let entry = match walk.slot(node, s) {
-                Slot::Empty => continue,
-                Slot::Inner(child) => child,
-                Slot::Leaf => LEAF_REF | (node as u32) << W::SLOT_BITS | s as u32,
+            let Some(entry) = walk.entry(node, s) else {
+                continue;
             };
             let entry = (entry, keys[s]);
             let Some(held) = next else {
