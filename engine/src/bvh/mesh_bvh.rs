@@ -7,7 +7,7 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::ray_queries::{self, LeafTriangles};
+use super::ray_queries::{self, LeafTriangles, Tree8};
 use super::traverse::ray8::avx_available;
 use super::wide::{Bvh4, Bvh8};
 use super::{BuildOptions, Bvh, Node};
@@ -71,15 +71,7 @@ pub struct MeshBvh {
 impl MeshBvh {
     /// Builds the hierarchy of `mesh`.
     pub fn build(mesh: &TriangleMesh, options: &BuildOptions) -> Self {
-        let (nodes, prim_ids) = binary_tree(mesh, options);
-        let binary = Bvh {
-            nodes,
-            prim_ids: Vec::new(),
-        };
-        let mut bvh = Bvh4::from_binary(&binary);
-        let bvh8 = avx_available()
-            .then(|| Bvh8::from_binary(&binary.nodes, &bvh))
-            .filter(Bvh8::addressable);
+        let (mut bvh, bvh8, prim_ids) = wide_tree(mesh, options);
         let triangles: Vec<[Vec3A; 3]> = prim_ids
             .par_iter()
             .with_min_len(4096)
@@ -258,20 +250,29 @@ impl LeafTriangles for MeshBvh {
     }
 
     #[inline(always)]
-    fn tree8(&self) -> Option<&Bvh8> {
-        self.bvh8.as_ref()
+    fn tree8(&self) -> Option<Tree8<'_>> {
+        self.bvh8.as_ref().map(Tree8::Plain)
     }
 }
 
-/// The wide tree of `mesh` (without build ratios) and its leaf order: leaf
-/// slot `i` holds triangle `prim_ids[i]`.
-pub(crate) fn wide_tree(mesh: &TriangleMesh, options: &BuildOptions) -> (Bvh4, Vec<u32>) {
+/// The 4-wide tree of `mesh` (without build ratios), the 8-wide one over
+/// the same leaves where the CPU has AVX (and its stack entries can name
+/// every leaf), and their leaf order: leaf slot `i` holds triangle
+/// `prim_ids[i]`.
+pub(crate) fn wide_tree(
+    mesh: &TriangleMesh,
+    options: &BuildOptions,
+) -> (Bvh4, Option<Bvh8>, Vec<u32>) {
     let (nodes, prim_ids) = binary_tree(mesh, options);
-    let wide = Bvh4::from_binary(&Bvh {
+    let binary = Bvh {
         nodes,
         prim_ids: Vec::new(),
-    });
-    (wide, prim_ids)
+    };
+    let four = Bvh4::from_binary(&binary);
+    let eight = avx_available()
+        .then(|| Bvh8::from_binary(&binary.nodes, &four))
+        .filter(Bvh8::addressable);
+    (four, eight, prim_ids)
 }
 
 /// The binary tree of `mesh` and its leaf order.

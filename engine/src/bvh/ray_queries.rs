@@ -10,6 +10,7 @@
 
 use glam::{Vec3, Vec3A};
 
+use super::compact::CompactBvh8;
 #[cfg(target_arch = "x86_64")]
 use super::traverse::ray8;
 use super::traverse::{self, Flow, RayTest, WideTree};
@@ -28,9 +29,16 @@ pub(crate) trait LeafTriangles {
     fn prim_id(&self, slot: u32) -> u32;
     /// The 8-wide tree over the same leaf slots, where there is one (built
     /// only where the CPU has AVX).
-    fn tree8(&self) -> Option<&Bvh8> {
+    fn tree8(&self) -> Option<Tree8<'_>> {
         None
     }
+}
+
+/// An 8-wide tree rays walk: the plain layout's or the compact one's.
+#[derive(Clone, Copy)]
+pub(crate) enum Tree8<'a> {
+    Plain(&'a Bvh8),
+    Compact(&'a CompactBvh8),
 }
 
 /// Traces `ray` and calls `on_hit(slot, hit, t_max)` for every triangle it

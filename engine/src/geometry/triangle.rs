@@ -61,8 +61,9 @@ impl WatertightRay {
         let a = ray.dir.abs();
         // The largest axis, and the others' order, by bit operations and
         // arrays, not branches: a random direction's axes do not predict.
-        let x_largest = (a.x > a.y) & (a.x > a.z);
-        let y_largest = !(a.x > a.y) & (a.y > a.z);
+        let x_over_y = a.x > a.y;
+        let x_largest = x_over_y & (a.x > a.z);
+        let y_largest = !x_over_y & (a.y > a.z);
         let kz = 2 - 2 * usize::from(x_largest) - usize::from(y_largest);
         let flip = usize::from(d[kz] < 0.0);
         let (kx, ky) = ((kz + 1 + flip) % 3, (kz + 2 - flip) % 3);

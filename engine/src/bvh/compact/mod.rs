@@ -24,6 +24,7 @@
 //! assert!(compact.memory_bytes() * 3 < plain.memory_bytes());
 //! ```
 
+pub mod eight;
 pub mod geometry;
 pub mod node;
 pub mod tree;
@@ -31,10 +32,11 @@ pub mod tree;
 use glam::Vec3A;
 
 use super::mesh_bvh::{leaf_box_and_area, wide_tree};
-use super::ray_queries::{self, LeafTriangles};
+use super::ray_queries::{self, LeafTriangles, Tree8};
 use super::{BuildOptions, MeshHit, RefitReport};
 use crate::geometry::{Aabb, Ray, TriangleMesh};
 use crate::{Error, Result};
+pub use eight::{CompactBvh8, CompactNode8};
 pub use geometry::SharedCorners;
 pub use node::CompactNode4;
 pub use tree::CompactBvh4;
@@ -43,6 +45,8 @@ pub use tree::CompactBvh4;
 #[derive(Clone, Debug)]
 pub struct CompactBvh {
     tree: CompactBvh4,
+    /// The tree rays walk where the CPU has AVX, over the same triangles.
+    tree8: Option<CompactBvh8>,
     /// Slot order to mesh order: slot `i` holds triangle `prim_ids[i]`.
     prim_ids: Vec<u32>,
     triangles: SharedCorners,
@@ -57,20 +61,31 @@ impl CompactBvh {
             max_leaf_size: options.max_leaf_size.min(node::MAX_LEAF),
             ..options.clone()
         };
-        let (plain, plain_ids) = wide_tree(mesh, &options);
+        let (plain, plain8, plain_ids) = wide_tree(mesh, &options);
         let (tree, order) = CompactBvh4::from_plain(&plain);
         let prim_ids: Vec<u32> = order.iter().map(|&s| plain_ids[s as usize]).collect();
         let triangles = SharedCorners::new(mesh, &prim_ids);
         let mut bvh = Self {
             tree,
+            tree8: None,
             prim_ids,
             triangles,
             options,
         };
         let mut tree = std::mem::take(&mut bvh.tree);
-        let (bounds, areas) = bvh.leaf_measures();
-        tree.record_build_ratios(bounds, areas);
+        let tree8 = {
+            let (bounds, areas) = bvh.leaf_measures();
+            tree.record_build_ratios(&bounds, areas);
+            plain8.and_then(|plain8| {
+                let mut compact_slot = vec![0; order.len()];
+                for (i, &s) in order.iter().enumerate() {
+                    compact_slot[s as usize] = i as u32;
+                }
+                CompactBvh8::from_plain(&plain8, &compact_slot, &bounds)
+            })
+        };
         bvh.tree = tree;
+        bvh.tree8 = tree8;
         bvh
     }
 
@@ -89,6 +104,11 @@ impl CompactBvh {
 
     pub fn tree(&self) -> &CompactBvh4 {
         &self.tree
+    }
+
+    /// The 8-wide tree rays walk, where there is one (see [`eight`]).
+    pub fn eight(&self) -> Option<&CompactBvh8> {
+        self.tree8.as_ref()
     }
 
     /// Slot order to mesh order.
@@ -118,7 +138,10 @@ impl CompactBvh {
     /// corners and block starts. Everything a query needs; the mesh itself
     /// is not needed.
     pub fn memory_bytes(&self) -> usize {
-        self.tree.memory_bytes() + self.prim_ids.capacity() * 4 + self.triangles.memory_bytes()
+        self.tree.memory_bytes()
+            + self.tree8.as_ref().map_or(0, CompactBvh8::memory_bytes)
+            + self.prim_ids.capacity() * 4
+            + self.triangles.memory_bytes()
     }
 
     /// Refits to new vertex positions of the same mesh (same triangles).
@@ -135,9 +158,14 @@ impl CompactBvh {
             self.triangles = SharedCorners::new(mesh, &self.prim_ids);
         }
         let mut tree = std::mem::take(&mut self.tree);
+        let mut tree8 = self.tree8.take();
         let (bounds, areas) = self.leaf_measures();
-        let degradation = tree.refit(bounds, areas);
+        let (degradation, boxes) = tree.refit(bounds, areas);
+        if let Some(tree8) = &mut tree8 {
+            tree8.refit_from(&tree, &boxes);
+        }
         self.tree = tree;
+        self.tree8 = tree8;
         Ok(RefitReport { degradation })
     }
 
@@ -176,5 +204,9 @@ impl LeafTriangles for CompactBvh {
     #[inline(always)]
     fn prim_id(&self, slot: u32) -> u32 {
         self.prim_ids[slot as usize]
+    }
+
+    fn tree8(&self) -> Option<Tree8<'_>> {
+        self.tree8.as_ref().map(Tree8::Compact)
     }
 }

@@ -85,12 +85,12 @@ pub(crate) fn from_bfloat16(x: u16) -> f32 {
 }
 
 #[inline(always)]
-fn step(exponent: u8) -> f32 {
+pub(crate) fn step(exponent: u8) -> f32 {
     f32::from_bits((exponent as u32) << 23)
 }
 
 #[inline(always)]
-fn decode(origin: f32, q: u8, step: f32) -> f32 {
+pub(crate) fn decode(origin: f32, q: u8, step: f32) -> f32 {
     origin + q as f32 * step
 }
 
@@ -175,30 +175,41 @@ impl CompactNode4 {
     /// Encodes the slots' boxes (`None`: an empty slot) on a grid over
     /// their union.
     pub(crate) fn set_boxes(&mut self, slots: &[Option<Aabb>; 4]) {
-        let union = slots.iter().flatten().fold(Aabb::EMPTY, |u, b| u.union(*b));
-        for axis in 0..3 {
-            let (origin, top) = if union.is_empty() {
-                (0.0, 0.0)
-            } else {
-                (union.min[axis], union.max[axis])
+        (self.origin, self.exponent, self.q) = encode_grid(slots);
+    }
+}
+
+/// The grid of `slots` (`None`: an empty slot) over their union, for a
+/// node of any width: per axis its origin and biased exponent, and each
+/// slot's codes (minima x, y, z, then maxima), every decoded box holding
+/// its slot's box.
+pub(crate) fn encode_grid<const N: usize>(
+    slots: &[Option<Aabb>; N],
+) -> ([f32; 3], [u8; 3], [[u8; N]; 6]) {
+    let union = slots.iter().flatten().fold(Aabb::EMPTY, |u, b| u.union(*b));
+    let mut origin = [0.0; 3];
+    let mut exponent = [0; 3];
+    let mut q = [[0; N]; 6];
+    for axis in 0..3 {
+        let (low, top) = if union.is_empty() {
+            (0.0, 0.0)
+        } else {
+            (union.min[axis], union.max[axis])
+        };
+        exponent[axis] = grid_exponent(low, top);
+        origin[axis] = low;
+        let step = step(exponent[axis]);
+        for (s, b) in slots.iter().enumerate() {
+            (q[axis][s], q[3 + axis][s]) = match b {
+                Some(b) => (
+                    floor_code(low, step, b.min[axis]),
+                    ceil_code(low, step, b.max[axis]),
+                ),
+                None => (u8::MAX, 0),
             };
-            let exponent = grid_exponent(origin, top);
-            let step = step(exponent);
-            self.origin[axis] = origin;
-            self.exponent[axis] = exponent;
-            for (s, b) in slots.iter().enumerate() {
-                let (lo, hi) = match b {
-                    Some(b) => (
-                        floor_code(origin, step, b.min[axis]),
-                        ceil_code(origin, step, b.max[axis]),
-                    ),
-                    None => (u8::MAX, 0),
-                };
-                self.q[axis][s] = lo;
-                self.q[3 + axis][s] = hi;
-            }
         }
     }
+    (origin, exponent, q)
 }
 
 /// The 24 grid bytes as six vectors of four floats.

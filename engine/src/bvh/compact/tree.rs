@@ -64,46 +64,29 @@ impl CompactBvh4 {
         self.nodes.capacity() * std::mem::size_of::<CompactNode4>()
     }
 
-    /// The slot boxes of every node, exactly: leaf slots from
-    /// `leaf_bounds(first, count)`, inner ones as the union of their
-    /// child's, in one reverse sweep (children come after their parent).
+    /// The slot boxes of every node, exactly (see [`exact_boxes`]).
     fn exact_boxes(
         &self,
         leaf_bounds: &(impl Fn(u32, u32) -> Aabb + Sync),
     ) -> Vec<[Option<Aabb>; 4]> {
-        let leaves = |n: &CompactNode4| -> [Option<Aabb>; 4] {
-            std::array::from_fn(|s| {
-                (n.slot(s) == Slot::Leaf).then(|| leaf_bounds(n.leaf_first(s), n.count(s)))
-            })
-        };
-        let mut boxes: Vec<[Option<Aabb>; 4]> = if self.nodes.len() >= 4096 {
-            self.nodes
-                .par_iter()
-                .with_min_len(256)
-                .map(leaves)
-                .collect()
-        } else {
-            self.nodes.iter().map(leaves).collect()
-        };
-        for i in (0..self.nodes.len()).rev() {
-            for s in 0..4 {
-                if let Slot::Inner(child) = self.nodes[i].slot(s) {
-                    let b = boxes[child as usize].iter().flatten();
-                    boxes[i][s] = Some(b.fold(Aabb::EMPTY, |u, b| u.union(*b)));
-                }
-            }
-        }
-        boxes
+        exact_boxes(
+            &self.nodes,
+            |n, s| match n.slot(s) {
+                Slot::Inner(child) => Some(child),
+                _ => None,
+            },
+            |n, s| (n.slot(s) == Slot::Leaf).then(|| leaf_bounds(n.leaf_first(s), n.count(s))),
+        )
     }
 
     /// Recomputes and encodes every box (see [`exact_boxes`](Self::exact_boxes));
     /// returns the rebuild heuristic's degradation measured on the exact
-    /// boxes (`leaf_area_sum` as for the plain tree).
+    /// boxes (`leaf_area_sum` as for the plain tree), and those boxes.
     pub(crate) fn refit(
         &mut self,
         leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync,
         leaf_area_sum: impl Fn(u32, u32) -> f32,
-    ) -> f32 {
+    ) -> (f32, Vec<[Option<Aabb>; 4]>) {
         let boxes = self.exact_boxes(&leaf_bounds);
         self.nodes
             .par_iter_mut()
@@ -117,7 +100,9 @@ impl CompactBvh4 {
             .collect();
         let built: Vec<[f32; 5]> = self.nodes.iter().map(CompactNode4::build_ratios).collect();
         let nodes = &self.nodes;
-        wide::refit::degradation(&built, |i| now[i], |i, s| nodes[i].count(s) > 1)
+        let degradation =
+            wide::refit::degradation(&built, |i| now[i], |i, s| nodes[i].count(s) > 1);
+        (degradation, boxes)
     }
 
     /// Records the area ratios of `leaf_bounds` as the build-time reference.
@@ -180,6 +165,32 @@ impl CompactBvh4 {
             .sum();
         (total / root_area as f64) as f32
     }
+}
+
+/// The slot boxes of every node of a compact tree of any width, exactly:
+/// leaf slots from `leaf_box(node, s)`, inner ones as the union of their
+/// child's, in one reverse sweep (children come after their parent).
+/// `inner(node, s)` is the child of an inner slot.
+pub(super) fn exact_boxes<T: Sync, const N: usize>(
+    nodes: &[T],
+    inner: impl Fn(&T, usize) -> Option<u32>,
+    leaf_box: impl Fn(&T, usize) -> Option<Aabb> + Sync,
+) -> Vec<[Option<Aabb>; N]> {
+    let leaves = |n: &T| -> [Option<Aabb>; N] { std::array::from_fn(|s| leaf_box(n, s)) };
+    let mut boxes: Vec<[Option<Aabb>; N]> = if nodes.len() >= 4096 {
+        nodes.par_iter().with_min_len(256).map(leaves).collect()
+    } else {
+        nodes.iter().map(leaves).collect()
+    };
+    for i in (0..nodes.len()).rev() {
+        for s in 0..N {
+            if let Some(child) = inner(&nodes[i], s) {
+                let b = boxes[child as usize].iter().flatten();
+                boxes[i][s] = Some(b.fold(Aabb::EMPTY, |u, b| u.union(*b)));
+            }
+        }
+    }
+    boxes
 }
 
 impl WideTree for CompactBvh4 {
