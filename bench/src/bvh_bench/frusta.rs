@@ -22,7 +22,7 @@ pub struct Frusta<const COMPACT: bool> {
 impl<const COMPACT: bool> Accel for Frusta<COMPACT> {
     const NAME: &'static str = if COMPACT { "frusta-compact" } else { "frusta" };
     const NOTE: &'static str = if COMPACT {
-        "the frusta build re-encoded: 8-bit child boxes in 64-byte nodes, 16-bit corners into welded vertices; refit: vertices and leaf boxes on rayon, inner boxes in one serial sweep, nodes re-encoded on rayon"
+        "the frusta build re-encoded: 8-bit child boxes in 64-byte 4-wide nodes and (rays, on CPUs with AVX) 96-byte 8-wide ones, 16-bit corners into welded vertices; refit: vertices and leaf boxes on rayon, inner boxes in one serial sweep per tree, nodes re-encoded on rayon"
     } else {
         "binned SAH on rayon, collapsed to 4-wide and (rays, on CPUs with AVX) 8-wide; refit: leaves of both trees on rayon, inner nodes in one serial sweep each"
     };
