@@ -111,17 +111,17 @@ pub struct CompactBvh8 {
 impl CompactBvh8 {
     /// The tree of `plain` over triangles reordered: plain slot `s` is
     /// compact slot `compact_slot[s]`, each leaf's triangles kept side by
-    /// side and in order (as [`super::CompactBvh4::from_plain`] lays them
-    /// out). Boxes from `leaf_bounds(first, count)` in the compact order.
-    /// `None` where a link cannot name a leaf or node (see the module).
+    /// side and in order, as `four` lays them out (its exact slot boxes
+    /// `four_boxes` give the leaves'). `None` where a link cannot name a
+    /// leaf or node (see the module).
     pub(crate) fn from_plain(
         plain: &Bvh8,
         compact_slot: &[u32],
-        leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync,
+        four: &CompactBvh4,
+        four_boxes: &[[Option<Aabb>; 4]],
     ) -> Option<Self> {
-        if compact_slot.len() as u64 > u64::from(MAX_INDEX)
-            || plain.nodes().len() as u64 > u64::from(MAX_INDEX)
-        {
+        let too_many = |n: usize| n as u64 > u64::from(MAX_INDEX);
+        if too_many(compact_slot.len()) || too_many(plain.nodes().len()) {
             return None;
         }
         let mut nodes = Vec::with_capacity(plain.nodes().len());
@@ -138,10 +138,7 @@ impl CompactBvh8 {
             nodes.push(c);
         }
         let mut tree = Self { nodes };
-        tree.encode(|n, s| {
-            let (first, count) = n.leaf(s);
-            (n.slot(s) == Slot::Leaf).then(|| leaf_bounds(first, count))
-        });
+        tree.refit_from(four, four_boxes);
         Some(tree)
     }
 

@@ -73,19 +73,16 @@ impl CompactBvh {
             options,
         };
         let mut tree = std::mem::take(&mut bvh.tree);
-        let tree8 = {
-            let (bounds, areas) = bvh.leaf_measures();
-            tree.record_build_ratios(&bounds, areas);
-            plain8.and_then(|plain8| {
-                let mut compact_slot = vec![0; order.len()];
-                for (i, &s) in order.iter().enumerate() {
-                    compact_slot[s as usize] = i as u32;
-                }
-                CompactBvh8::from_plain(&plain8, &compact_slot, &bounds)
-            })
-        };
+        let (bounds, areas) = bvh.leaf_measures();
+        let boxes = tree.record_build_ratios(bounds, areas);
+        bvh.tree8 = plain8.and_then(|plain8| {
+            let mut compact_slot = vec![0; order.len()];
+            for (i, &s) in order.iter().enumerate() {
+                compact_slot[s as usize] = i as u32;
+            }
+            CompactBvh8::from_plain(&plain8, &compact_slot, &tree, &boxes)
+        });
         bvh.tree = tree;
-        bvh.tree8 = tree8;
         bvh
     }
 

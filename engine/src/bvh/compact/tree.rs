@@ -106,16 +106,18 @@ impl CompactBvh4 {
     }
 
     /// Records the area ratios of `leaf_bounds` as the build-time reference.
+    /// Returns the exact slot boxes they were measured on.
     pub(crate) fn record_build_ratios(
         &mut self,
         leaf_bounds: impl Fn(u32, u32) -> Aabb + Sync,
         leaf_area_sum: impl Fn(u32, u32) -> f32,
-    ) {
+    ) -> Vec<[Option<Aabb>; 4]> {
         let boxes = self.exact_boxes(&leaf_bounds);
         let ratios: Vec<[f32; 5]> = self.ratios(&boxes, &leaf_area_sum).collect();
         for (n, r) in self.nodes.iter_mut().zip(ratios) {
             n.set_build_ratios(r);
         }
+        boxes
     }
 
     fn ratios<'a>(
