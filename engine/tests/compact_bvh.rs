@@ -247,3 +247,38 @@ fn every_standard_mesh_hits_alike() {
         assert!(hits > rays.len() / 4, "{name}: only {hits} rays hit");
     }
 }
+
+/// Rays walk the compact 8-wide tree where the CPU has AVX, unless a leaf
+/// holds more triangles than its links can count (15): then there is none,
+/// the 4-wide tree answers, and the hits are still the plain layout's.
+#[test]
+fn large_leaves_fall_back_to_the_four_wide_walk() {
+    let mut rng = Rng(11);
+    let mesh = shapes::icosphere(2.0, 4);
+    let rays = rays(&mesh, 2000, &mut rng);
+    // Nodes cost so much against triangles that SAH keeps large leaves.
+    let options = BuildOptions {
+        max_leaf_size: 48,
+        traversal_cost: 1000.0,
+        ..BuildOptions::default()
+    };
+    let compact = CompactBvh::build(&mesh, &options);
+    let largest = compact
+        .tree()
+        .nodes()
+        .iter()
+        .flat_map(|n| (0..4).map(|s| n.count(s)))
+        .max()
+        .unwrap();
+    assert!(largest > 15, "the largest leaf holds {largest}");
+    assert!(compact.eight().is_none());
+    let plain = MeshBvh::build(&mesh, &options);
+    assert_same_hits(&plain, &compact, &rays, "large leaves");
+    // With the default leaves, AVX machines walk the 8-wide tree.
+    let default = CompactBvh::build(&mesh, &BuildOptions::default());
+    #[cfg(target_arch = "x86_64")]
+    assert_eq!(
+        default.eight().is_some(),
+        std::arch::is_x86_feature_detected!("avx")
+    );
+}

@@ -2,7 +2,8 @@
 //! their layout: [`MeshBvh`](super::MeshBvh) (corner copies) and
 //! [`CompactBvh`](super::CompactBvh) (shared vertices) both answer through
 //! these, so both give the same hits. Where a layout has an 8-wide tree
-//! over the same leaf slots ([`Bvh8`], with AVX), unpruned rays walk it.
+//! over the same leaf slots ([`Tree8`]: the plain [`Bvh8`] or the compact
+//! [`CompactBvh8`], built where the CPU has AVX), unpruned rays walk it.
 //! Its walk meets the same triangles, and the nearest hit is chosen by
 //! distance then mesh index, so the answer does not depend on the walk's
 //! order, except in the grazing cases of [`BOUND_SLACK`], where a machine

@@ -12,9 +12,9 @@
 //! side by side. Trees with a leaf of more than 15 triangles, or 2^28
 //! triangles or nodes, have none (rays walk the 4-wide tree).
 
-use super::node::{decode, encode_grid, step};
 use rayon::prelude::*;
 
+use super::node::{decode, encode_grid, step};
 use super::tree::{exact_boxes, CompactBvh4};
 use crate::bvh::traverse::Slot;
 use crate::bvh::wide::Bvh8;

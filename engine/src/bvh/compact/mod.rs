@@ -1,6 +1,8 @@
 //! The compact layout of a mesh's hierarchy (the ReduceM idea of the
 //! dissertation, chapter 3, on today's wide trees): 64-byte nodes with
-//! child boxes on an 8-bit grid ([`node`]), and triangles as 16-bit offsets
+//! child boxes on an 8-bit grid ([`node`]), 96-byte 8-wide nodes on the
+//! same grid that rays walk where the CPU has AVX ([`eight`]), and
+//! triangles as 16-bit offsets
 //! into shared vertices ([`geometry`]), about a third of the plain
 //! layout's bytes per triangle.
 //!
@@ -131,8 +133,8 @@ impl CompactBvh {
         self.tree.sah_cost()
     }
 
-    /// Bytes held: nodes (with their build ratios), slot order, vertices,
-    /// corners and block starts. Everything a query needs; the mesh itself
+    /// Bytes held: nodes of both trees (the 4-wide one's with their build
+    /// ratios), slot order, vertices, corners and block starts. Everything a query needs; the mesh itself
     /// is not needed.
     pub fn memory_bytes(&self) -> usize {
         self.tree.memory_bytes()

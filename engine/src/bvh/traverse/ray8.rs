@@ -100,38 +100,56 @@ fn entry8(node: usize, slot: usize, empty: bool, leaf: bool, child: u32) -> Opti
     Some(child ^ ((child ^ leaf_ref) & is_leaf))
 }
 
+/// What the walk reads of an 8-wide tree, plain or compact: everything
+/// else, the slab test included, is the same walk.
 #[cfg(target_arch = "x86_64")]
-impl WideWalk for RayWalk8<&Bvh8> {
-    const SLOT_BITS: u32 = 3;
-    const ORDERED: bool = true;
-    type Keys = [f32; 8];
+trait EightWide {
+    fn node_count(&self) -> usize;
+    /// Node `node`'s planes in rows `near` and `far` per axis.
+    ///
+    /// # Safety
+    /// Only from a function that enables AVX.
+    unsafe fn planes(
+        &self,
+        node: usize,
+        near: [usize; 3],
+        far: [usize; 3],
+    ) -> ([__m256; 3], [__m256; 3]);
+    /// See [`WideWalk::entry`].
+    fn entry(&self, node: usize, slot: usize) -> Option<u32>;
+    /// Leaf slot `slot`'s first triangle and count.
+    fn leaf(&self, node: usize, slot: usize) -> (u32, u32);
+    fn prefetch(&self, node: usize);
+}
 
+#[cfg(target_arch = "x86_64")]
+impl EightWide for Bvh8 {
     #[inline(always)]
     fn node_count(&self) -> usize {
-        self.tree.nodes.len()
+        self.nodes.len()
     }
 
-    /// Inlined into [`walk`], which enables AVX: the intrinsics are
-    /// inlined there too.
+    /// Every row is 32-byte aligned (the node is 64-byte aligned, rows 32
+    /// bytes long).
     #[inline(always)]
-    fn test(&self, node: usize, bound: f32) -> ([f32; 8], u32) {
-        let planes = &self.tree.nodes[node].planes;
-        // SAFETY: only reached from `walk`, which runs where AVX is;
-        // every row is 32-byte aligned (the node is 64-byte aligned, rows
-        // 32 bytes long).
-        unsafe {
-            let (mut near, mut far) = ([_mm256_setzero_ps(); 3], [_mm256_setzero_ps(); 3]);
-            for axis in 0..3 {
-                near[axis] = _mm256_load_ps(planes[self.near[axis]].as_ptr());
-                far[axis] = _mm256_load_ps(planes[self.far[axis]].as_ptr());
-            }
-            self.slabs(near, far, bound)
+    unsafe fn planes(
+        &self,
+        node: usize,
+        near: [usize; 3],
+        far: [usize; 3],
+    ) -> ([__m256; 3], [__m256; 3]) {
+        let planes = &self.nodes[node].planes;
+        let (mut n, mut f) = ([_mm256_setzero_ps(); 3], [_mm256_setzero_ps(); 3]);
+        for axis in 0..3 {
+            n[axis] = _mm256_load_ps(planes[near[axis]].as_ptr());
+            f[axis] = _mm256_load_ps(planes[far[axis]].as_ptr());
         }
+        (n, f)
     }
 
     #[inline(always)]
     fn entry(&self, node: usize, slot: usize) -> Option<u32> {
-        let n = &self.tree.nodes[node];
+        let n = &self.nodes[node];
         let (child, count) = (n.child[slot], n.count[slot]);
         entry8(
             node,
@@ -140,6 +158,12 @@ impl WideWalk for RayWalk8<&Bvh8> {
             count != 0,
             child,
         )
+    }
+
+    #[inline(always)]
+    fn leaf(&self, node: usize, slot: usize) -> (u32, u32) {
+        let n = &self.nodes[node];
+        (n.child[slot], n.count[slot])
     }
 
     #[inline(always)]
@@ -165,41 +189,44 @@ unsafe fn decode8(q: &[u8; 8], origin: __m256, step: __m256) -> __m256 {
 }
 
 #[cfg(target_arch = "x86_64")]
-impl WideWalk for RayWalk8<&CompactBvh8> {
-    const SLOT_BITS: u32 = 3;
-    const ORDERED: bool = true;
-    type Keys = [f32; 8];
-
+impl EightWide for CompactBvh8 {
     #[inline(always)]
     fn node_count(&self) -> usize {
-        self.tree.nodes.len()
+        self.nodes.len()
     }
 
-    /// The planes decoded as [`CompactNode8::slot_aabb`] decodes them
-    /// (`origin + q · step`, the product exact), then the plain test.
+    /// Decoded as [`CompactNode8::slot_aabb`] decodes them (`origin +
+    /// q · step`, the product exact), so the test sees the same boxes;
+    /// AVX implies the SSE4.1 of the byte widening.
     ///
     /// [`CompactNode8::slot_aabb`]: crate::bvh::compact::CompactNode8::slot_aabb
     #[inline(always)]
-    fn test(&self, node: usize, bound: f32) -> ([f32; 8], u32) {
-        let n = &self.tree.nodes[node];
-        // SAFETY: only reached from `walk`, which runs where AVX (and so
-        // SSE4.1) is.
-        unsafe {
-            let (mut near, mut far) = ([_mm256_setzero_ps(); 3], [_mm256_setzero_ps(); 3]);
-            for axis in 0..3 {
-                let origin = _mm256_set1_ps(n.origin[axis]);
-                let step = _mm256_set1_ps(step(n.exponent[axis]));
-                near[axis] = decode8(&n.q[self.near[axis]], origin, step);
-                far[axis] = decode8(&n.q[self.far[axis]], origin, step);
-            }
-            self.slabs(near, far, bound)
+    unsafe fn planes(
+        &self,
+        node: usize,
+        near: [usize; 3],
+        far: [usize; 3],
+    ) -> ([__m256; 3], [__m256; 3]) {
+        let n = &self.nodes[node];
+        let (mut lo, mut hi) = ([_mm256_setzero_ps(); 3], [_mm256_setzero_ps(); 3]);
+        for axis in 0..3 {
+            let origin = _mm256_set1_ps(n.origin[axis]);
+            let step = _mm256_set1_ps(step(n.exponent[axis]));
+            lo[axis] = decode8(&n.q[near[axis]], origin, step);
+            hi[axis] = decode8(&n.q[far[axis]], origin, step);
         }
+        (lo, hi)
     }
 
     #[inline(always)]
     fn entry(&self, node: usize, slot: usize) -> Option<u32> {
-        let link = self.tree.nodes[node].link[slot];
+        let link = self.nodes[node].link[slot];
         entry8(node, slot, link == u32::MAX, link >> COUNT_SHIFT != 0, link)
+    }
+
+    #[inline(always)]
+    fn leaf(&self, node: usize, slot: usize) -> (u32, u32) {
+        self.nodes[node].leaf(slot)
     }
 
     /// Kept children are asked for as they are pushed, as in the compact
@@ -207,7 +234,40 @@ impl WideWalk for RayWalk8<&CompactBvh8> {
     /// incoherent rate to 1x).
     #[inline(always)]
     fn prefetch(&self, node: usize) {
-        super::wide::prefetch(&self.tree.nodes[node]);
+        super::wide::prefetch(&self.nodes[node]);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<T: EightWide> WideWalk for RayWalk8<&T> {
+    const SLOT_BITS: u32 = 3;
+    const ORDERED: bool = true;
+    type Keys = [f32; 8];
+
+    #[inline(always)]
+    fn node_count(&self) -> usize {
+        self.tree.node_count()
+    }
+
+    /// Inlined into [`walk`], which enables AVX: the intrinsics are
+    /// inlined there too.
+    #[inline(always)]
+    fn test(&self, node: usize, bound: f32) -> ([f32; 8], u32) {
+        // SAFETY: only reached from `walk`, which runs where AVX is.
+        unsafe {
+            let (near, far) = self.tree.planes(node, self.near, self.far);
+            self.slabs(near, far, bound)
+        }
+    }
+
+    #[inline(always)]
+    fn entry(&self, node: usize, slot: usize) -> Option<u32> {
+        self.tree.entry(node, slot)
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, node: usize) {
+        self.tree.prefetch(node)
     }
 }
 
@@ -219,31 +279,33 @@ impl WideWalk for RayWalk8<&CompactBvh8> {
 /// The CPU must have AVX ([`avx_available`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-pub(crate) unsafe fn walk(
-    tree: Tree8,
+pub(crate) unsafe fn walk(tree: Tree8, ray: &Ray, leaf: impl FnMut(u32, u32, &mut f32) -> Flow) {
+    match tree {
+        Tree8::Plain(tree) => walk_tree(tree, ray, leaf),
+        Tree8::Compact(tree) => walk_tree(tree, ray, leaf),
+    }
+}
+
+/// [`walk`] on one kind of tree.
+///
+/// # Safety
+/// Only from a function that enables AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn walk_tree<T: EightWide>(
+    tree: &T,
     ray: &Ray,
     mut leaf: impl FnMut(u32, u32, &mut f32) -> Flow,
 ) {
     let test = RayTest::new(ray);
     // Each level pushes at most seven more entries than it pops.
-    match tree {
-        Tree8::Plain(tree) => walk_nodes::<_, { 7 * STACK_SIZE }>(
-            &RayWalk8::new(tree, &test),
-            ray.t_max,
-            |_, _, _| true,
-            |node, slot, t_max| {
-                let n = &tree.nodes[node];
-                leaf(n.child[slot], n.count[slot], t_max)
-            },
-        ),
-        Tree8::Compact(tree) => walk_nodes::<_, { 7 * STACK_SIZE }>(
-            &RayWalk8::new(tree, &test),
-            ray.t_max,
-            |_, _, _| true,
-            |node, slot, t_max| {
-                let (first, count) = tree.nodes[node].leaf(slot);
-                leaf(first, count, t_max)
-            },
-        ),
-    }
+    walk_nodes::<_, { 7 * STACK_SIZE }>(
+        &RayWalk8::new(tree, &test),
+        ray.t_max,
+        |_, _, _| true,
+        |node, slot, t_max| {
+            let (first, count) = tree.leaf(node, slot);
+            leaf(first, count, t_max)
+        },
+    );
 }
