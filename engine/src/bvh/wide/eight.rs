@@ -106,13 +106,12 @@ pub struct Bvh8 {
 }
 
 impl Bvh8 {
-    /// Collapses a binary tree: each node takes the two children of a
-    /// binary node and keeps opening the largest inner child until it holds
-    /// eight (as [`Bvh4::from_binary`](super::Bvh4::from_binary) does four).
+    /// Collapses a binary tree into the 8-wide tree over the same leaves
+    /// with the least node area (see [`collapse`](super::collapse)).
     /// `four` is the 4-wide tree collapsed from the same binary tree, which
     /// [`refit_from`](Self::refit_from) copies leaf boxes from.
     pub fn from_binary(bin: &[Node], four: &Bvh4) -> Self {
-        let mut nodes = super::collapse_tree(bin);
+        let mut nodes = super::collapse::collapse_tree(bin);
         nodes.shrink_to_fit();
         let leaf_sources = leaf_sources(&nodes, four);
         Self {

@@ -7,6 +7,7 @@
 //! incoherent rays take far fewer dependent loads. The binary tree stays the
 //! build intermediate and the top level of scenes, where nodes are few.
 
+mod collapse;
 mod eight;
 pub(crate) mod refit;
 
@@ -16,7 +17,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::Vec4;
 
-use super::{Bvh, Node};
+use super::Bvh;
 use crate::geometry::Aabb;
 
 /// Four child boxes in structure-of-arrays form, their links and counts.
@@ -172,11 +173,10 @@ pub(crate) fn next_id() -> u64 {
 }
 
 impl Bvh4 {
-    /// Collapses a binary tree: each wide node takes the two children of a
-    /// binary node and keeps opening the largest inner child until it holds
-    /// four, which keeps the SAH order of the splits.
+    /// Collapses a binary tree into the 4-wide tree over the same leaves
+    /// with the least node area (see [`collapse`]).
     pub fn from_binary(bin: &Bvh) -> Self {
-        let nodes = collapse_tree(&bin.nodes);
+        let nodes = collapse::collapse_tree(&bin.nodes);
         let mut wide = Self {
             nodes,
             build_ratios: Vec::new(),
@@ -275,64 +275,4 @@ impl WideNode for Node4 {
     fn inner(&self, slot: usize) -> Option<usize> {
         self.is_inner_slot(slot).then(|| self.child[slot] as usize)
     }
-}
-
-/// The wide nodes of binary tree `bin`, the root first and every child
-/// after its parent.
-fn collapse_tree<N: WideNode>(bin: &[Node]) -> Vec<N> {
-    let mut nodes = Vec::with_capacity(bin.len() / (N::WIDTH - 1) + 1);
-    if let Some(root) = bin.first() {
-        if root.is_leaf() {
-            let mut n = N::EMPTY;
-            n.set_slot(0, root.aabb(), root.first(), root.count());
-            nodes.push(n);
-        } else {
-            collapse(bin, 0, &mut nodes);
-        }
-    }
-    nodes
-}
-
-/// Emits the wide node for binary inner node `b` and, recursively, its
-/// inner children; returns its index.
-fn collapse<N: WideNode>(bin: &[Node], b: usize, out: &mut Vec<N>) -> u32 {
-    let kids = wide_children(bin, b, N::WIDTH);
-    let index = out.len();
-    out.push(N::EMPTY);
-    let mut node = N::EMPTY;
-    for (slot, &k) in kids.iter().enumerate() {
-        let (child, count) = if bin[k].is_leaf() {
-            (bin[k].first(), bin[k].count())
-        } else {
-            (collapse(bin, k, out), 0)
-        };
-        node.set_slot(slot, bin[k].aabb(), child, count);
-    }
-    out[index] = node;
-    index as u32
-}
-
-/// The binary nodes that become the slots of the wide node made for binary
-/// inner node `b`: its two children, the largest inner one opened until
-/// there are `width`, which keeps the SAH order of the splits.
-fn wide_children(bin: &[Node], b: usize, width: usize) -> Vec<usize> {
-    let first = bin[b].first() as usize;
-    let mut kids: Vec<usize> = vec![first, first + 1];
-    while kids.len() < width {
-        let widest = kids
-            .iter()
-            .enumerate()
-            .filter(|(_, &k)| !bin[k].is_leaf())
-            .max_by(|x, y| {
-                bin[*x.1]
-                    .aabb()
-                    .half_area()
-                    .total_cmp(&bin[*y.1].aabb().half_area())
-            });
-        let Some((i, &k)) = widest else { break };
-        let f = bin[k].first() as usize;
-        kids[i] = f;
-        kids.push(f + 1);
-    }
-    kids
 }
