@@ -396,12 +396,14 @@ fn expand(
 
 /// Above this many triangles in one frustum, sample rays cost less than
 /// classifying the triangles against the samples: a ray through the hall's
-/// 4-wide tree costs about as much as two classified triangles, and a
+/// 8-wide tree costs about as much as a classified triangle, and a
 /// frustum has `(N+1)^2 + N^2` rays (145 at N = 8). Below it, in rooms
 /// of large walls, classification is several times cheaper. A frustum
 /// over the budget throws away what it classified, so at most this many
-/// classifications are wasted per frustum.
-const SAMPLE_CLASSIFY_BUDGET: u64 = 96;
+/// classifications are wasted per frustum. (96, chosen when rays walked
+/// the 4-wide tree, took 1.05x the time of 48 at order 4 in hall-10k and
+/// 1.08x at order 3 in hall-200k, for the same paths.)
+const SAMPLE_CLASSIFY_BUDGET: u64 = 48;
 
 /// Pushes to `scratch.touched` a `(group, cell)` pair for every plane group
 /// a cell of `f` is handed to. Conservative: every triangle touching the
