@@ -67,19 +67,21 @@ impl WatertightRay {
         let kz = 2 - 2 * usize::from(x_largest) - usize::from(y_largest);
         let flip = usize::from(d[kz] < 0.0);
         let (kx, ky) = ((kz + 1 + flip) % 3, (kz + 2 - flip) % 3);
+        // Lanes picked by masks, not written at run-time indices: a
+        // vector read of lanes just written one by one waits for the
+        // stores to drain.
+        let lanes = Vec3A::new(0.0, 1.0, 2.0);
+        let lane = |k: usize| lanes.cmpeq(Vec3A::splat(k as f32));
+        let at_z = lane(kz);
         let weights = |k: usize, along: f32| {
-            let mut w = [0.0; 3];
-            w[k] = 1.0;
-            w[kz] = -along;
-            Vec3A::from_array(w)
+            let off_z = Vec3A::select(at_z, Vec3A::splat(-along), Vec3A::ZERO);
+            Vec3A::select(lane(k), Vec3A::ONE, off_z)
         };
-        let mut z = [0.0; 3];
-        z[kz] = 1.0 / d[kz];
         Self {
             origin: ray.origin,
             x: weights(kx, d[kx] / d[kz]),
             y: weights(ky, d[ky] / d[kz]),
-            z: Vec3A::from_array(z),
+            z: Vec3A::select(at_z, Vec3A::splat(1.0 / d[kz]), Vec3A::ZERO),
         }
     }
 
