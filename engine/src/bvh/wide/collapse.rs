@@ -70,6 +70,16 @@ impl Plan<'_> {
         }
         let l = node.first() as usize;
         debug_assert!(l > n, "a child before its parent");
+        if self.bin[l].is_leaf() && self.bin[l + 1].is_leaf() {
+            // Its own node of two leaves, or the two leaves as slots.
+            self.shares[n].store(
+                u64::from_le_bytes([1, 1, 1, 1, 1, 1, 1, 1]),
+                Ordering::Relaxed,
+            );
+            let mut cost = [0.0; 8];
+            cost[0] = node.aabb().half_area().max(0.0);
+            return cost;
+        }
         let (left, right) = if depth < PARALLEL_DEPTH {
             rayon::join(|| self.cost(l, depth + 1), || self.cost(l + 1, depth + 1))
         } else {
@@ -109,12 +119,12 @@ impl Plan<'_> {
     fn emit<N: WideNode>(&self, n: usize, out: &mut Vec<N>) -> u32 {
         let index = out.len();
         out.push(N::EMPTY);
-        let mut slots = Vec::with_capacity(self.width);
+        let mut slots = Slots::default();
         let (l, own) = (self.bin[n].first() as usize, self.share(n, 1));
         self.slots(l, own, &mut slots);
         self.slots(l + 1, self.width - own, &mut slots);
         let mut node = N::EMPTY;
-        for (slot, &k) in slots.iter().enumerate() {
+        for (slot, &k) in slots.nodes[..slots.len].iter().enumerate() {
             let b = &self.bin[k];
             let (child, count) = if b.is_leaf() {
                 (b.first(), b.count())
@@ -128,16 +138,25 @@ impl Plan<'_> {
     }
 
     /// The binary nodes that fill the at most `i` slots subtree `n` fills.
-    fn slots(&self, n: usize, i: usize, out: &mut Vec<usize>) {
+    fn slots(&self, n: usize, i: usize, out: &mut Slots) {
         let k = if i >= 2 { self.share(n, i) } else { 0 };
         if k == 0 {
-            out.push(n);
+            out.nodes[out.len] = n;
+            out.len += 1;
             return;
         }
         let l = self.bin[n].first() as usize;
         self.slots(l, k, out);
         self.slots(l + 1, i - k, out);
     }
+}
+
+/// The binary nodes filling one wide node's slots, without an allocation
+/// per node.
+#[derive(Default)]
+struct Slots {
+    nodes: [usize; 8],
+    len: usize,
 }
 
 #[cfg(test)]
