@@ -22,7 +22,7 @@ use super::beams::Beams;
 use super::classify::{classify, NearestDepths, Target};
 use super::cull::{box_cull, for_each_leaf};
 use super::frustum::Frustum;
-use super::merge::merge_cells;
+use super::merge::{merge_cells, CellSets};
 use super::path::Event;
 use super::sample_rays;
 use super::surfaces::{Surfaces, NO_GROUP};
@@ -120,6 +120,7 @@ struct Scratch {
     contacts: Vec<(u32, u32, f64)>,
     /// `(group, cell)` pairs that survive occlusion.
     touched: Vec<(u32, u32)>,
+    cell_sets: CellSets,
     rects: Vec<[u32; 4]>,
     /// The nearest hit of each sample ray ([`CellAssignment::Sampled`];
     /// empty otherwise).
@@ -382,11 +383,7 @@ fn expand(
     scratch.touched.clear();
     let f = &p.frustum;
     touch_cells(input, f, last_group, n, options.cells, scratch, stats);
-    // One u64 key per pair: a cheaper comparison than the tuple's.
-    scratch
-        .touched
-        .sort_unstable_by_key(|&(group, cell)| (group as u64) << 32 | cell as u64);
-    scratch.touched.dedup();
+    scratch.cell_sets.sort_dedup(&mut scratch.touched, n * n);
     let touched = std::mem::take(&mut scratch.touched);
     for cells in touched.chunk_by(|a, b| a.0 == b.0) {
         spawn(input, options, p, cells, n, scratch);
