@@ -85,20 +85,22 @@ impl Plan<'_> {
         } else {
             (self.cost(l, depth + 1), self.cost(l + 1, depth + 1))
         };
-        // The children in at most `j` slots: the least cost and the left
-        // child's share (one slot each where every cost is infinite).
-        let share = |j: usize| {
+        // `split[j - 1]`: the children in at most `j` slots, the least cost
+        // and the left child's share (one slot each where every cost is
+        // infinite); each computed once, `j = width` also for its own node.
+        let split: [(f32, usize); 8] = std::array::from_fn(|i| {
+            let j = if i < width { i + 1 } else { 0 };
             (1..j)
                 .map(|k| (left[k - 1] + right[j - k - 1], k))
                 .fold((f32::INFINITY, 1), |a, b| if b.0 < a.0 { b } else { a })
-        };
-        let (inside, own) = share(width);
+        });
+        let (inside, own) = split[width - 1];
         let mut cost = [f32::INFINITY; 8];
         // `how[i - 1]`: the left child's share of `i` slots, 0 for one slot.
         let mut how = [0u8; 8];
         cost[0] = node.aabb().half_area().max(0.0) + inside;
         for i in 2..=width {
-            let (split, k) = share(i);
+            let (split, k) = split[i - 1];
             (cost[i - 1], how[i - 1]) = if split < cost[i - 2] {
                 (split, k as u8)
             } else {
@@ -274,6 +276,23 @@ mod tests {
             checked += 1;
         }
         assert!(checked >= 40, "only {checked} trees small enough");
+    }
+
+    /// Boxes so large that their areas overflow to infinity still give wide
+    /// trees over exactly the binary leaves (every share then costs the
+    /// same, and each node keeps its two children apart).
+    #[test]
+    fn infinite_areas_still_collapse_into_a_tree_of_the_leaves() {
+        let boxes: Vec<Aabb> = (0..40)
+            .map(|i| {
+                let at = Vec3A::new(i as f32 * 1e37 - 2e38, 0.0, (i % 7) as f32);
+                Aabb::new(at, at + Vec3A::new(1e37, 3e38, 1.0))
+            })
+            .collect();
+        let bin = Bvh::build(&boxes, &BuildOptions::default());
+        assert!(bin.nodes()[0].aabb().half_area().is_infinite());
+        checked_area(bin.nodes(), &collapse_tree::<Node4>(bin.nodes()));
+        checked_area(bin.nodes(), &collapse_tree::<Node8>(bin.nodes()));
     }
 
     /// A tree whose root is a leaf becomes one node of one slot.
