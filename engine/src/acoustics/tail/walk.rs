@@ -355,12 +355,11 @@ impl<'a> Walk<'a> {
                 plane: Plane { normal, .. },
                 material,
             } = *surfaces.group(group);
-            // The normal on the side the ray came from.
-            let facing = if dir.dot(normal) < 0.0 {
-                normal
-            } else {
-                -normal
-            };
+            // The normal on the side the ray came from. A sign picked, not
+            // a branch: which side a ray meets is a coin toss, and the
+            // branch had been a quarter of the tail's mispredictions.
+            let side = if dir.dot(normal) < 0.0 { 1.0 } else { -1.0 };
+            let facing = normal * side;
             let surface = self.surface(material);
             let chance = if order <= ALWAYS_RAIN_ORDER {
                 1.0
@@ -641,19 +640,55 @@ fn lattice_direction(ray: usize, rays: usize, shift: f64, turn: f64) -> DVec3 {
 }
 
 /// A direction in the hemisphere around `normal`, with density
-/// proportional to the cosine from it (Lambert's law).
+/// proportional to the cosine from it (Lambert's law): a point uniform in
+/// the unit disk, lifted onto the hemisphere (Malley's method). The disk's
+/// point is drawn by rejection from its square, which costs 1.27 draws of
+/// two numbers on average and no trigonometry: `sin_cos` had been a tenth
+/// of a diffuse reflection's work.
 fn lambert_direction(rng: &mut ChaCha8Rng, normal: DVec3) -> DVec3 {
     let (u, v) = normal.any_orthonormal_pair();
-    let r2 = rng.random::<f64>();
-    let phi = 2.0 * PI * rng.random::<f64>();
-    let r = r2.sqrt();
-    let z = (1.0 - r2).max(0.0).sqrt();
-    (u * (r * phi.cos()) + v * (r * phi.sin()) + normal * z).normalize()
+    let (x, y, r2) = loop {
+        let x = 2.0 * rng.random::<f64>() - 1.0;
+        let y = 2.0 * rng.random::<f64>() - 1.0;
+        let r2 = x * x + y * y;
+        if r2 < 1.0 {
+            break (x, y, r2);
+        }
+    };
+    let z = (1.0 - r2).sqrt();
+    (u * x + v * y + normal * z).normalize()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Lambert's law, by its closed-form moments: over directions of
+    /// density cos θ / π in the hemisphere, the mean of cos θ is 2/3 and of
+    /// cos² θ is 1/2, and the azimuth is uniform (the mean tangential
+    /// component is zero). Every direction is unit length and in front.
+    #[test]
+    fn lambert_directions_have_the_cosine_laws_moments() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let normal = DVec3::new(0.3, -0.5, 0.8).normalize();
+        let (u, v) = normal.any_orthonormal_pair();
+        let n = 200_000;
+        let (mut cos, mut cos2, mut tangent) = (0.0, 0.0, DVec3::ZERO);
+        for _ in 0..n {
+            let d = lambert_direction(&mut rng, normal);
+            assert!((d.length() - 1.0).abs() < 1e-12);
+            let c = d.dot(normal);
+            assert!(c >= 0.0, "{d} behind the surface");
+            cos += c;
+            cos2 += c * c;
+            tangent += DVec3::new(d.dot(u), d.dot(v), 0.0);
+        }
+        let n = f64::from(n);
+        // Standard errors are about 0.24 / √n = 5e-4; five of them.
+        assert!((cos / n - 2.0 / 3.0).abs() < 3e-3, "{}", cos / n);
+        assert!((cos2 / n - 0.5).abs() < 3e-3, "{}", cos2 / n);
+        assert!((tangent / n).length() < 4e-3, "{}", tangent / n);
+    }
 
     /// Every ray lies in its own band of heights, whatever the seed's shift
     /// and turn: exactly one ray per band of equal area. And over shifts
