@@ -7,6 +7,7 @@ use std::ops::Range;
 use glam::{DVec3, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_pcg::Pcg64;
 
 use super::region::Region;
 use super::{Room, TailInput, BIN_S};
@@ -284,9 +285,7 @@ impl<'a> Walk<'a> {
             if i as u64 % CLOCK_PERIOD == 0 {
                 deadline.check()?;
             }
-            let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
-            rng.set_stream(ray as u64);
-            hits += self.ray(self.direction(ray), &mut rng, emit);
+            hits += self.ray(self.direction(ray), &mut ray_rng(self.seed, ray), emit);
         }
         Ok(hits)
     }
@@ -307,7 +306,7 @@ impl<'a> Walk<'a> {
         lattice_direction(ray, self.rays, self.shift, self.turn)
     }
 
-    fn ray(&self, start: DVec3, rng: &mut ChaCha8Rng, emit: &mut impl FnMut(Event)) -> u64 {
+    fn ray(&self, start: DVec3, rng: &mut Pcg64, emit: &mut impl FnMut(Event)) -> u64 {
         let mut origin = self.source;
         let mut dir = start;
         let mut energy = self.start;
@@ -413,10 +412,18 @@ impl<'a> Walk<'a> {
                 } else {
                     &surface.specular
                 };
-                // Divided by the chance of reflecting only where it is not 1.
-                let reflects = 1.0 - p_through;
-                for (e, f) in energy.iter_mut().zip(factors) {
-                    *e *= if p_through > 0.0 { f / reflects } else { *f };
+                // Divided by the chance of reflecting only where it is not
+                // 1: two loops, so that walls that pass nothing do not
+                // compute (and discard) a division per band.
+                if p_through > 0.0 {
+                    let reflects = 1.0 - p_through;
+                    for (e, f) in energy.iter_mut().zip(factors) {
+                        *e *= f / reflects;
+                    }
+                } else {
+                    for (e, f) in energy.iter_mut().zip(factors) {
+                        *e *= f;
+                    }
                 }
                 dir = if diffusely {
                     lambert_direction(rng, facing)
@@ -628,6 +635,14 @@ fn unit_hash(values: [f64; 4]) -> f64 {
     (h >> 11) as f64 / (1u64 << 53) as f64
 }
 
+/// The random stream of ray `ray` of seed `seed`: its own generator,
+/// seeded (state and increment) from the two, so each ray draws the same
+/// numbers whichever thread walks it, and in whatever order. PCG: a ray
+/// draws three or four numbers a reflection.
+fn ray_rng(seed: u64, ray: usize) -> Pcg64 {
+    Pcg64::seed_from_u64(seed ^ (ray as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15))
+}
+
 /// Point `ray` of the spherical Fibonacci lattice of `rays` points, its
 /// height `shift` (in `[0, 1)`) of the way down its stratum and its
 /// azimuth turned by `turn`: stratum `ray` is the band of heights
@@ -645,7 +660,7 @@ fn lattice_direction(ray: usize, rays: usize, shift: f64, turn: f64) -> DVec3 {
 /// point is drawn by rejection from its square, which costs 1.27 draws of
 /// two numbers on average and no trigonometry: `sin_cos` had been a tenth
 /// of a diffuse reflection's work.
-fn lambert_direction(rng: &mut ChaCha8Rng, normal: DVec3) -> DVec3 {
+fn lambert_direction(rng: &mut Pcg64, normal: DVec3) -> DVec3 {
     let (u, v) = normal.any_orthonormal_pair();
     let (x, y, r2) = loop {
         let x = 2.0 * rng.random::<f64>() - 1.0;
@@ -655,8 +670,8 @@ fn lambert_direction(rng: &mut ChaCha8Rng, normal: DVec3) -> DVec3 {
             break (x, y, r2);
         }
     };
-    let z = (1.0 - r2).sqrt();
-    (u * x + v * y + normal * z).normalize()
+    // Unit length to rounding already: (u, v, normal) are orthonormal.
+    u * x + v * y + normal * (1.0 - r2).sqrt()
 }
 
 #[cfg(test)]
@@ -669,7 +684,7 @@ mod tests {
     /// component is zero). Every direction is unit length and in front.
     #[test]
     fn lambert_directions_have_the_cosine_laws_moments() {
-        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut rng = Pcg64::seed_from_u64(5);
         let normal = DVec3::new(0.3, -0.5, 0.8).normalize();
         let (u, v) = normal.any_orthonormal_pair();
         let n = 200_000;
