@@ -83,12 +83,14 @@ impl SceneBvh {
         hit: impl Fn(&MeshBvh, &Ray) -> Option<H>,
         t: impl Fn(&H) -> f32,
     ) -> Option<(u32, H)> {
+        if let [inst] = self.instances() {
+            // One object: its own walk tests the boxes the top level would,
+            // and rejects the rays the check below would (a rigid motion
+            // keeps a ray's non-finite or zero parts so).
+            return hit(inst.bvh(), &local(inst, ray, ray.t_max)).map(|h| (0, h));
+        }
         if !ray.is_valid() {
             return None;
-        }
-        if let [inst] = self.instances() {
-            // One object: its own walk tests the boxes the top level would.
-            return hit(inst.bvh(), &local(inst, ray, ray.t_max)).map(|h| (0, h));
         }
         let mut best = None;
         self.walk_objects(&RayTest::new(ray), ray.t_max, |object, inst, t_max| {

@@ -523,6 +523,7 @@ impl<'a> Receivers<'a> {
 
     /// Counts one event at every listener; its energies are widened only
     /// where they are counted (most legs miss every sphere).
+    #[inline]
     pub fn take(&self, event: &Recorded, tally: &mut Tally) {
         let (at, towards) = (event.at.as_dvec3(), event.towards.as_dvec3());
         let travelled = f64::from(event.travelled);
