@@ -181,8 +181,6 @@ struct Saved<'a> {
     runs: &'a [Run],
 }
 
-/// Runs `name` as it is, or with every material's scattering set to zero
-/// (`specular`): the rooms the exact image sources answer.
 /// Band `band` of a response's echogram: its paths, then its tail.
 fn echogram(r: &Response, band: usize) -> Vec<(f64, f64)> {
     let Some(i) = r
@@ -203,6 +201,8 @@ fn echogram(r: &Response, band: usize) -> Vec<(f64, f64)> {
     out
 }
 
+/// Runs `name` as it is, or with every material's scattering set to zero
+/// (`specular`): the rooms the exact image sources answer.
 fn run_scene(name: &'static str, specular: bool, args: &Args) -> Result<Run, String> {
     let mut bench = scenes::load(name, false)?;
     if specular {
