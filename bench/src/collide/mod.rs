@@ -19,7 +19,9 @@ use std::time::Instant;
 use frusta_engine::bvh::obb::ObbTree;
 use frusta_engine::bvh::traverse::front::Front;
 use frusta_engine::bvh::{BuildOptions, MeshBvh};
-use frusta_engine::collision::{mesh_contacts, mesh_self_contacts, triangle_distance, Placed};
+use frusta_engine::collision::{
+    mesh_contacts, mesh_self_contacts, triangle_distance, NearPairs, Placed,
+};
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use glam::{Quat, Vec3};
 use serde::Serialize;
@@ -208,6 +210,7 @@ fn ours(case: &Case, obb: bool, front: bool) -> Result<Replay, String> {
     let mut bvh = MeshBvh::build(&case.mesh, &BuildOptions::default());
     let mut obbs = obb.then(|| ObbTree::fit(&bvh));
     let mut kept = front.then(Front::new);
+    let mut near = front.then(|| NearPairs::new(&case.mesh));
     let mut replay = Replay::new();
     match &case.motion {
         Motion::Deform(frames) => {
@@ -219,7 +222,7 @@ fn ours(case: &Case, obb: bool, front: bool) -> Result<Replay, String> {
                 }
                 replay.refit_ms += ms(t);
                 let t = Instant::now();
-                let pairs = mesh_self_contacts(&bvh, obbs.as_ref(), kept.as_mut()).map_err(err)?;
+                let pairs = mesh_self_contacts(&bvh, obbs.as_ref(), near.as_mut()).map_err(err)?;
                 replay.query_ms += ms(t);
                 replay.pairs.push(pairs);
             }

@@ -144,7 +144,7 @@ pub(crate) fn self_contacts_at(
     let ids = inst.bvh().prim_ids();
     let to_world = world_point(inst.to_world());
     let exact = |t: &[Vec3A; 3]| t.map(|p| Vec3::from(p).as_dvec3());
-    let mut contacts: Vec<_> = self_contact_slots(inst.bvh(), None, None, stop)?
+    let mut contacts: Vec<_> = self_contact_slots(inst.bvh(), None, stop)?
         .into_iter()
         .map(|(x, y)| {
             let (x, y) = (x as usize, y as usize);

@@ -6,6 +6,7 @@
 use glam::{DVec3, Vec3, Vec3A};
 use rayon::prelude::*;
 
+use super::near_pairs::NearPairs;
 use super::triangle::triangles_intersect;
 use super::world_corners;
 use crate::bvh::obb::{ObbTree, ObbVolumes};
@@ -136,7 +137,6 @@ pub(crate) fn contact_slots(
 pub(crate) fn self_contact_slots(
     mesh: &MeshBvh,
     obbs: Option<&ObbTree>,
-    front: Option<&mut Front>,
     stop: &Deadline,
 ) -> Result<Vec<(u32, u32)>> {
     let tris = mesh.leaf_triangles();
@@ -179,7 +179,7 @@ pub(crate) fn self_contact_slots(
     Ok(match obbs {
         Some(o) => {
             let volumes = ObbVolumes::new((mesh, o), (mesh, o), None, 0.0)?;
-            walk(&volumes, true, front, stop, visit)?
+            walk(&volumes, true, None, stop, visit)?
         }
         None => {
             let volumes = BoxVolumes {
@@ -188,7 +188,7 @@ pub(crate) fn self_contact_slots(
                 b_to_a: None,
                 margin: 0.0,
             };
-            walk(&volumes, true, front, stop, visit)?
+            walk(&volumes, true, None, stop, visit)?
         }
     })
 }
@@ -224,15 +224,22 @@ pub fn mesh_contacts(a: Placed, b: Placed, front: Option<&mut Front>) -> Result<
 }
 
 /// Every pair of intersecting triangles of one mesh that share no corner,
-/// as mesh-order indices `(p, q)`, `p < q`, sorted; with oriented boxes
-/// and a front as in [`mesh_contacts`].
+/// as mesh-order indices `(p, q)`, `p < q`, sorted. With `near`, the
+/// pairs kept from the frames before answer while they hold every pair
+/// that can touch (see [`NearPairs`]), and its walks, when it must be
+/// taken again, use the tree's boxes; without, one walk over the boxes or
+/// over `obbs`.
 pub fn mesh_self_contacts(
     mesh: &MeshBvh,
     obbs: Option<&ObbTree>,
-    front: Option<&mut Front>,
+    near: Option<&mut NearPairs>,
 ) -> Result<Vec<(u32, u32)>> {
     let ids = mesh.prim_ids();
-    let mut pairs: Vec<(u32, u32)> = self_contact_slots(mesh, obbs, front, &Deadline::none())?
+    let slots = match near {
+        Some(near) => near.contact_slots(mesh, &Deadline::none())?,
+        None => self_contact_slots(mesh, obbs, &Deadline::none())?,
+    };
+    let mut pairs: Vec<(u32, u32)> = slots
         .into_iter()
         .map(|(x, y)| {
             let (p, q) = (ids[x as usize], ids[y as usize]);

@@ -8,6 +8,7 @@ pub mod continuous;
 mod discrete;
 mod distance;
 mod mesh_pairs;
+mod near_pairs;
 mod query;
 mod triangle;
 
@@ -20,6 +21,7 @@ pub use discrete::{object_contacts, object_proximity, self_contacts, world_conta
 pub(crate) use distance::closest_on_triangle;
 pub use distance::triangle_distance;
 pub use mesh_pairs::{mesh_contacts, mesh_self_contacts, Placed};
+pub use near_pairs::NearPairs;
 pub use query::{all_pairs, CollisionQuery, CollisionTest, Found};
 pub use triangle::triangles_intersect;
 
