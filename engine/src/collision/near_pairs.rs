@@ -354,7 +354,9 @@ mod tests {
             contacts += walked.len();
         }
         assert!(contacts > 10, "{contacts}");
-        assert!(near.walks() < frames / 4, "{} walks", near.walks());
+        // A reach of SERVE_FRAMES frames' motion holds that many frames.
+        let most = frames as f32 / SERVE_FRAMES + 2.0;
+        assert!(near.walks() as f32 <= most, "{} walks", near.walks());
     }
 
     /// Pairs sharing a vertex are never listed; a mesh of another size is
