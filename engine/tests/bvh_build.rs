@@ -166,6 +166,43 @@ fn invalid_rays_hit_nothing_and_never_panic() {
         .is_none());
 }
 
+/// A scene of one object takes its mesh walk's checks alone (no check of
+/// its own): invalid rays must still hit nothing through a rotation and a
+/// translation, which keep a ray's non-finite or zero parts so, and a
+/// valid one still hits.
+#[test]
+fn invalid_rays_hit_nothing_in_a_one_object_scene_that_is_moved() {
+    use frusta_engine::bvh::SceneBvh;
+    use frusta_engine::geometry::RigidTransform;
+    use frusta_engine::scene::{Material, Scene};
+    use glam::Quat;
+    let turn = Quat::from_axis_angle(Vec3::new(0.3, 1.0, -0.2).normalize(), 0.7);
+    let scene = Scene {
+        materials: vec![Material::uniform("m", 0.1).unwrap()],
+        objects: vec![common::object(
+            "cube",
+            frusta_engine::geometry::shapes::cube(1.0, 2),
+            RigidTransform::new(turn, Vec3::new(3.0, -2.0, 1.0)).unwrap(),
+        )],
+    };
+    let world = SceneBvh::build(&scene, &BuildOptions::default());
+    let (nan, inf) = (f32::NAN, f32::INFINITY);
+    for ray in [
+        Ray::new(Vec3::new(nan, 0.0, 0.0), Vec3::X),
+        Ray::new(Vec3::ZERO, Vec3::new(nan, 1.0, 0.0)),
+        Ray::new(Vec3::ZERO, Vec3::new(inf, 0.0, 0.0)),
+        Ray::new(Vec3::splat(inf), Vec3::X),
+        Ray::new(Vec3::new(3.0, -2.0, 1.0), Vec3::ZERO),
+        Ray::new(Vec3::ZERO, Vec3::X).with_range(nan, 1.0),
+    ] {
+        assert!(world.closest_hit(&ray).is_none(), "{ray:?}");
+        assert!(world.closest_triangle(&ray).is_none(), "{ray:?}");
+        assert!(!world.any_hit(&ray), "{ray:?}");
+    }
+    let centre = Ray::new(Vec3::new(3.0, -2.0, 1.0), Vec3::X);
+    assert!(world.closest_triangle(&centre).is_some());
+}
+
 #[test]
 fn sah_trees_cost_less_than_morton_trees() {
     let mut rng = Rng(8);

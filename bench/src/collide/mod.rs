@@ -1,7 +1,8 @@
 //! `frusta-bench collide`: discrete collision per frame on a deforming
 //! cloth (self-collision) and on a mesh moving through a copy of itself
 //! (a pair), with the trees' boxes or oriented boxes, with and without a
-//! BVTT front kept between frames, and the same queries through `parry3d`
+//! front kept between frames (the cloth's near pairs, the pair's BVTT
+//! front), and the same queries through `parry3d`
 //! in the same process. Every variant must find the same pairs, frame by
 //! frame; parry's are compared with ours and differences reported.
 //!

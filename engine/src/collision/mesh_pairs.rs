@@ -54,8 +54,15 @@ fn walk<V: PairVolumes>(
     Ok(found)
 }
 
-fn triangle_box([a, b, c]: &[Vec3A; 3]) -> Aabb {
+pub(super) fn triangle_box([a, b, c]: &[Vec3A; 3]) -> Aabb {
     Aabb::new(a.min(*b).min(*c), a.max(*b).max(*c))
+}
+
+/// Whether two triangles of one mesh, in its frame, share no corner and
+/// intersect (decided exactly on their coordinates).
+pub(super) fn distinct_and_touching(tx: &[Vec3A; 3], ty: &[Vec3A; 3]) -> bool {
+    let exact = |t: &[Vec3A; 3]| t.map(|p| Vec3::from(p).as_dvec3());
+    !tx.iter().any(|p| ty.contains(p)) && triangles_intersect(&exact(tx), &exact(ty))
 }
 
 fn f64_box(t: &[DVec3; 3]) -> (DVec3, DVec3) {
@@ -147,7 +154,6 @@ pub(crate) fn self_contact_slots(
         .with_min_len(4096)
         .map(triangle_box)
         .collect();
-    let exact = |t: &[Vec3A; 3]| t.map(|p| Vec3::from(p).as_dvec3());
     let visit = |la: Leaf, lb: Leaf, out: &mut Vec<(u32, u32)>| {
         let reach = boxes[lb.slots()]
             .iter()
@@ -167,9 +173,7 @@ pub(crate) fn self_contact_slots(
             for y in ys {
                 if bx.overlaps(&boxes[y]) {
                     let (tx, ty) = (&tris[x], &tris[y]);
-                    if !tx.iter().any(|p| ty.contains(p))
-                        && triangles_intersect(&exact(tx), &exact(ty))
-                    {
+                    if distinct_and_touching(tx, ty) {
                         out.push((x as u32, y as u32));
                     }
                 }

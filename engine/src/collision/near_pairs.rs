@@ -23,7 +23,7 @@
 use glam::Vec3A;
 use rayon::prelude::*;
 
-use super::triangle::triangles_intersect;
+use super::mesh_pairs::{distinct_and_touching, triangle_box};
 use crate::bvh::traverse::front::par_leaf_pairs;
 use crate::bvh::traverse::pair::{BoxVolumes, Leaf};
 use crate::bvh::traverse::{Flow, OverlapTest};
@@ -118,29 +118,26 @@ impl NearPairs {
                 .collect(),
             false => Vec::new(),
         };
-        if !kept || left.len() * MOVED_SHARE > tris.len() {
-            self.take(mesh, &moved, stop)?;
-            left.clear();
-        } else {
-            self.served += 1;
-        }
         let boxes: Vec<Aabb> = tris
             .par_iter()
             .with_min_len(CHUNK)
             .map(triangle_box)
             .collect();
+        if !kept || left.len() * MOVED_SHARE > tris.len() {
+            self.take(mesh, &boxes, &moved, stop)?;
+            left.clear();
+        } else {
+            self.served += 1;
+        }
         let mut gone = vec![false; tris.len()];
         for &t in &left {
             gone[t as usize] = true;
         }
         let ids = mesh.prim_ids();
         let vertices = &self.vertices;
-        let exact = |t: &[Vec3A; 3]| t.map(|p| glam::Vec3::from(p).as_dvec3());
         let touching = |x: usize, y: usize| {
             let (tx, ty) = (&tris[x], &tris[y]);
-            boxes[x].overlaps(&boxes[y])
-                && !tx.iter().any(|p| ty.contains(p))
-                && triangles_intersect(&exact(tx), &exact(ty))
+            boxes[x].overlaps(&boxes[y]) && distinct_and_touching(tx, ty)
         };
         let listed = self.pairs.par_chunks(CHUNK).map(|chunk| {
             stop.check()?;
@@ -183,14 +180,15 @@ impl NearPairs {
     /// Takes the list afresh: each triangle's reach from how far it moved
     /// (`moved`) under the last list, then a walk from the root with every
     /// box of the tree grown by the largest.
-    fn take(&mut self, mesh: &MeshBvh, moved: &[f32], stop: &Deadline) -> Result<()> {
+    fn take(
+        &mut self,
+        mesh: &MeshBvh,
+        boxes: &[Aabb],
+        moved: &[f32],
+        stop: &Deadline,
+    ) -> Result<()> {
         let tris = mesh.leaf_triangles();
         let ids = mesh.prim_ids();
-        let boxes: Vec<Aabb> = tris
-            .par_iter()
-            .with_min_len(CHUNK)
-            .map(triangle_box)
-            .collect();
         let served = self.served.max(1) as f32;
         let reach: Vec<f32> = boxes
             .iter()
@@ -256,10 +254,6 @@ impl NearPairs {
         };
         Ok(())
     }
-}
-
-fn triangle_box([a, b, c]: &[Vec3A; 3]) -> Aabb {
-    Aabb::new(a.min(*b).min(*c), a.max(*b).max(*c))
 }
 
 /// Per triangle, the farthest any corner moved along any axis from `taken`
