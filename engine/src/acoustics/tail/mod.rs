@@ -34,10 +34,10 @@
 //! with a diffuse reflection is not counted at the sphere either, since the
 //! rain from that reflection already carried it.
 //!
-//! Each ray draws from its own random stream (ChaCha8, stream = ray index),
-//! and rays are summed in a fixed order of fixed chunks, so a given seed
-//! gives the same tail, to the bit, on any thread count: a stream of a
-//! static source does not flicker.
+//! Each ray draws from its own random stream (PCG, seeded from the seed and
+//! the ray's index), and rays are summed in a fixed order of fixed chunks,
+//! so a given seed gives the same tail, to the bit, on any thread count: a
+//! stream of a static source does not flicker.
 
 mod region;
 mod walk;
