@@ -122,7 +122,7 @@ const SIDE_FILTER_FLOOR: f64 = 1e-250;
 /// t[0]`). Its sign is kept where `|d|` exceeds that bound, computed
 /// generously; the predicate decides the rest (the points on the plane, or
 /// within rounding of it). Most of a cloth's candidate pairs are settled by
-/// the first three signs, each a third of an `orient3d`'s work.
+/// the first three signs, each far cheaper than an `orient3d`.
 fn sides(t: &[DVec3; 3], u: &[DVec3; 3]) -> [i8; 3] {
     let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
     let n = e1.cross(e2);
@@ -289,13 +289,13 @@ mod tests {
     /// The filtered signs against the exact predicate alone, on points
     /// rounded onto a triangle's plane (so within rounding of it, on
     /// either side or on it), at scales from 1e-3 to 1e4 and away from the
-    /// origin: where rounding decides a sign, the filter must not. (About
-    /// one in eight of these signs comes out wrong from the rounded
-    /// distance alone.)
+    /// origin: where rounding decides a sign, the filter must not. The
+    /// rounded distance's own sign is wrong on many of these points (the
+    /// test checks that too, so it cannot pass for want of hard cases).
     #[test]
     fn filtered_sides_are_the_exact_orientations() {
         let mut rng = Rng(17);
-        let mut off_plane = 0;
+        let (mut off_plane, mut rounding_misleads) = (0, 0);
         for round in 0..20_000 {
             let scale = [1e-3, 1.0, 1e4][round % 3];
             let shift = [0.0, 1.0, 100.0][round / 3 % 3] * scale;
@@ -306,9 +306,16 @@ mod tests {
             let u = [(); 3].map(|_| t[0] + e1 * weight() + e2 * weight());
             let exact = u.map(|p| orient(t[0], t[1], t[2], p));
             off_plane += exact.iter().filter(|&&s| s != 0).count();
+            let n = e1.cross(e2);
+            rounding_misleads += u
+                .iter()
+                .zip(&exact)
+                .filter(|(p, &s)| -sign(n.dot(**p - t[0])) != s)
+                .count();
             assert_eq!(sides(&t, &u), exact, "{t:?} {u:?}");
         }
         assert!(off_plane > 10_000, "{off_plane}");
+        assert!(rounding_misleads > 1_000, "{rounding_misleads}");
     }
 
     #[test]
