@@ -15,7 +15,7 @@ use crate::bvh::traverse::pair::{BoxVolumes, Leaf, PairVolumes};
 use crate::bvh::traverse::Flow;
 use crate::bvh::MeshBvh;
 use crate::deadline::{Deadline, CLOCK_PERIOD};
-use crate::geometry::{Aabb, RigidTransform};
+use crate::geometry::{Aabb, BoxMotion, RigidTransform};
 use crate::Result;
 
 /// A mesh placed in the world, with the oriented boxes to walk instead of
@@ -130,7 +130,7 @@ pub(crate) fn contact_slots(
             let volumes = BoxVolumes {
                 a: a.mesh.wide(),
                 b: b.mesh.wide(),
-                b_to_a,
+                b_to_a: b_to_a.as_ref().map(BoxMotion::new),
                 margin: slack,
             };
             walk(&volumes, false, front, stop, visit)?

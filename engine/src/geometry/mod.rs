@@ -8,7 +8,7 @@ pub mod shapes;
 mod transform;
 pub mod triangle;
 
-pub use aabb::Aabb;
+pub use aabb::{Aabb, BoxMotion};
 pub use mesh::{check_mesh, check_positions, TriangleMesh, MAX_COORDINATE};
 pub use ray::{trace_batch, Ray};
 pub use transform::RigidTransform;

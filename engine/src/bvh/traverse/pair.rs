@@ -17,7 +17,7 @@ use glam::Vec3A;
 use super::Flow;
 use super::{NodeTest, OverlapTest};
 use crate::bvh::wide::{Bvh4, Node4};
-use crate::geometry::{Aabb, RigidTransform};
+use crate::geometry::{Aabb, BoxMotion, RigidTransform};
 
 /// A run of leaf slots, `first..first + count`, of a tree's leaf order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -116,7 +116,7 @@ pub trait PairVolumes: Sync {
 pub struct BoxVolumes<'t> {
     pub a: &'t Bvh4,
     pub b: &'t Bvh4,
-    pub b_to_a: Option<RigidTransform>,
+    pub b_to_a: Option<BoxMotion>,
     pub margin: f32,
 }
 
@@ -141,7 +141,7 @@ impl PairVolumes for BoxVolumes<'_> {
     fn volume_b(&self, s: Slot) -> Aabb {
         let mut b = self.b.nodes[s.node()].slot_aabb(s.slot());
         if let Some(t) = &self.b_to_a {
-            b = b.transformed(t);
+            b = t.apply(&b);
         }
         if self.margin > 0.0 {
             b = Aabb::new(
@@ -363,7 +363,7 @@ pub fn leaves_within(
     let volumes = BoxVolumes {
         a,
         b,
-        b_to_a: b_to_a.copied(),
+        b_to_a: b_to_a.map(BoxMotion::new),
         margin,
     };
     let _ = descend(&volumes, Pair::ROOT, &mut Vec::new(), None, &mut visit);
