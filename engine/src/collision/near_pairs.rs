@@ -1,18 +1,21 @@
 //! A self-collision front kept down to the bounding-volume test tree's
 //! true leaves, pairs of triangles (the dissertation's section 6.2.3 taken
 //! below the trees' leaves): every pair of triangles sharing no vertex
-//! whose boxes, each grown by its triangle's own reach, met when the list
-//! was taken.
+//! whose boxes, each grown by its triangle's own reach around where the
+//! triangle was when last taken, meet.
 //!
 //! A triangle's box moves no farther along an axis than its corners do. A
-//! triangle that has moved no farther than its reach since the list was
-//! taken is *held*; two held triangles whose boxes overlap now are on the
-//! list. So a frame tests the list's pairs of held triangles, and asks the
-//! tree for what the boxes of the few others overlap; the walk from the
-//! root runs again only when too many have left their reach. Each
-//! triangle's reach is what it moved per frame under the last list, times
-//! [`SERVE_FRAMES`], up to its box's size: resting parts of a cloth list
-//! only the pairs that touch, moving ones their neighbourhood.
+//! triangle that has moved no farther than its reach since it was taken
+//! is *held*; two held triangles whose boxes overlap now are on the list.
+//! A triangle that leaves its reach is taken again alone: where it is
+//! now, a reach from how fast it moved, and its pairs from a query of the
+//! tree refitted on the grown boxes, in place of its old ones. So every
+//! triangle is held when a frame tests the list's pairs, and the walk from
+//! the root runs again only when the tree's topology changes or more than
+//! one triangle in [`RETAKE_SHARE`] leaves at once. Each triangle's reach
+//! is what it moved per frame since it was taken, times [`SERVE_FRAMES`],
+//! up to half its box's size: resting parts of a cloth list only the
+//! pairs that touch, moving ones their neighbourhood.
 //!
 //! This is what makes a front pay on the CPU: the pair walk's last levels
 //! hold nearly all its nodes, so a BVTT front of tree nodes saves little
@@ -27,6 +30,7 @@ use super::mesh_pairs::{distinct_and_touching, triangle_box};
 use crate::bvh::traverse::front::par_leaf_pairs;
 use crate::bvh::traverse::pair::{BoxVolumes, Leaf};
 use crate::bvh::traverse::{Flow, OverlapTest};
+use crate::bvh::wide::Bvh4;
 use crate::bvh::MeshBvh;
 use crate::deadline::Deadline;
 use crate::geometry::{Aabb, TriangleMesh};
@@ -35,9 +39,11 @@ use crate::{Error, Result};
 /// Frames a triangle's reach is sized to hold it at the speed it moved.
 const SERVE_FRAMES: f32 = 4.0;
 
-/// The list is taken again once more than one triangle in this many has
-/// left its reach: each costs a query of the tree every frame.
-const MOVED_SHARE: usize = 16;
+/// The whole list is taken again, by a walk from the root, once more than
+/// one triangle in this many leaves its reach in one frame: each costs a
+/// query of the tree, and a walk costs about as much as queries for a
+/// third of the triangles.
+const RETAKE_SHARE: usize = 4;
 
 /// Candidate pairs or triangles handled per task.
 const CHUNK: usize = 4096;
@@ -48,16 +54,19 @@ const CHUNK: usize = 4096;
 pub struct NearPairs {
     /// Each mesh triangle's vertex indices: pairs sharing one never count.
     vertices: Vec<[u32; 3]>,
-    /// Leaf slots `(x, y)` of the pairs, sharing no vertex, whose boxes
-    /// grown by their reaches met when taken.
+    /// Leaf slots `(x, y)` of the pairs, sharing no vertex, whose grown
+    /// boxes meet.
     pairs: Vec<(u32, u32)>,
-    /// Per leaf slot, the triangle when taken and its reach.
+    /// Per leaf slot, the triangle when taken, its reach, its box grown by
+    /// the reach, and the frames since it was taken.
     taken: Vec<[Vec3A; 3]>,
     reach: Vec<f32>,
+    grown: Vec<Aabb>,
+    age: Vec<u32>,
+    /// The mesh's tree refitted on the grown boxes.
+    grown_tree: Bvh4,
     /// The tree's topology when taken.
     topology: u64,
-    /// Frames answered since taken, the one it was taken in included.
-    served: u32,
     /// Walks from the root so far.
     walks: u64,
 }
@@ -112,74 +121,55 @@ impl NearPairs {
         } else {
             vec![f32::INFINITY; tris.len()]
         };
-        let mut left: Vec<u32> = match kept {
-            true => (0..tris.len() as u32)
-                .filter(|&t| !holds(moved[t as usize], self.reach[t as usize], scale))
-                .collect(),
-            false => Vec::new(),
-        };
         let boxes: Vec<Aabb> = tris
             .par_iter()
             .with_min_len(CHUNK)
             .map(triangle_box)
             .collect();
-        if !kept || left.len() * MOVED_SHARE > tris.len() {
-            self.take(mesh, &boxes, &moved, stop)?;
-            left.clear();
-        } else {
-            self.served += 1;
-        }
-        let mut gone = vec![false; tris.len()];
-        for &t in &left {
-            gone[t as usize] = true;
-        }
-        let ids = mesh.prim_ids();
-        let vertices = &self.vertices;
-        let touching = |x: usize, y: usize| {
-            let (tx, ty) = (&tris[x], &tris[y]);
-            boxes[x].overlaps(&boxes[y]) && distinct_and_touching(tx, ty)
-        };
-        let listed = self.pairs.par_chunks(CHUNK).map(|chunk| {
-            stop.check()?;
-            Ok(chunk
-                .iter()
-                .filter(|&&(x, y)| !gone[x as usize] && !gone[y as usize])
-                .filter(|&&(x, y)| touching(x as usize, y as usize))
-                .copied()
-                .collect::<Vec<_>>())
-        });
-        // What the boxes of the triangles out of reach overlap now: each
-        // pair once (of two such triangles, from the lower slot).
-        let queried = left.par_chunks(CHUNK / 64).map(|chunk| {
-            stop.check()?;
-            let mut out = Vec::new();
-            for &x in chunk {
-                let x = x as usize;
-                let vx = &vertices[ids[x] as usize];
-                mesh.wide()
-                    .walk(&OverlapTest::new(boxes[x]), 0.0, |first, count, _| {
-                        for y in first as usize..(first + count) as usize {
-                            let other = !gone[y] || x < y;
-                            if y != x
-                                && other
-                                && !vx.iter().any(|v| vertices[ids[y] as usize].contains(v))
-                                && touching(x, y)
-                            {
-                                out.push((x as u32, y as u32));
-                            }
-                        }
-                        Flow::Continue(())
-                    });
+        let left: Vec<u32> = match kept {
+            true => {
+                self.age.par_iter_mut().for_each(|a| *a += 1);
+                (0..tris.len() as u32)
+                    .filter(|&t| !holds(moved[t as usize], self.reach[t as usize], scale))
+                    .collect()
             }
-            Ok(out)
-        });
-        let found = listed.chain(queried).collect::<Result<Vec<_>>>()?;
+            false => Vec::new(),
+        };
+        if !kept || left.len() * RETAKE_SHARE > tris.len() {
+            self.take(mesh, &boxes, &moved, stop)?;
+        } else if !left.is_empty() {
+            self.retake(mesh, &left, &boxes, &moved, stop)?;
+        }
+        let touching = |&(x, y): &(u32, u32)| {
+            let (x, y) = (x as usize, y as usize);
+            boxes[x].overlaps(&boxes[y]) && distinct_and_touching(&tris[x], &tris[y])
+        };
+        let found = self
+            .pairs
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                stop.check()?;
+                Ok(chunk.iter().filter(|p| touching(p)).copied().collect())
+            })
+            .collect::<Result<Vec<Vec<_>>>>()?;
         Ok(found.concat())
     }
 
-    /// Takes the list afresh: each triangle's reach from how far it moved
-    /// (`moved`) under the last list, then a walk from the root with every
-    /// box of the tree grown by the largest.
+    /// A triangle's reach, from how far it moved (`moved`) in the `age`
+    /// frames since it was last taken: [`SERVE_FRAMES`] frames' worth of
+    /// its speed, at most half its box now (`now`).
+    fn reach_of(now: &Aabb, moved: f32, age: u32) -> f32 {
+        match moved.is_finite() {
+            true => (SERVE_FRAMES * moved / age.max(1) as f32)
+                .min(0.5 * (now.max - now.min).max_element()),
+            // Never taken before, or a coordinate not finite: no reach.
+            false => 0.0,
+        }
+    }
+
+    /// Takes the list afresh: every triangle where it is now with its
+    /// reach, and the pairs by a walk from the root over the tree refitted
+    /// on the grown boxes, so the walk meets just those leaves.
     fn take(
         &mut self,
         mesh: &MeshBvh,
@@ -189,30 +179,19 @@ impl NearPairs {
     ) -> Result<()> {
         let tris = mesh.leaf_triangles();
         let ids = mesh.prim_ids();
-        let served = self.served.max(1) as f32;
         let reach: Vec<f32> = boxes
             .iter()
             .zip(moved)
-            .map(|(b, &d)| match d.is_finite() {
-                true => (SERVE_FRAMES * d / served).min(0.5 * (b.max - b.min).max_element()),
-                // No list before, or a coordinate not finite: no reach.
-                false => 0.0,
-            })
+            .zip(self.age.iter().chain(std::iter::repeat(&0)))
+            .map(|((b, &d), &age)| Self::reach_of(b, d, age))
             .collect();
-        // Each box grown by its reach: two overlap where the triangles lay
-        // within their two reaches. The tree is refitted over them, so the
-        // walk meets just those leaves.
         let grown: Vec<Aabb> = boxes
             .iter()
             .zip(&reach)
             .map(|(b, &r)| Aabb::new(b.min - r, b.max + r))
             .collect();
         let mut tree = mesh.wide().clone();
-        tree.refit(|first, count| {
-            grown[first as usize..(first + count) as usize]
-                .iter()
-                .fold(Aabb::EMPTY, |u, b| u.union(*b))
-        });
+        refit_on(&mut tree, &grown);
         let vertices = &self.vertices;
         let near = |x: usize, y: usize| {
             let (vx, vy) = (&vertices[ids[x] as usize], &vertices[ids[y] as usize]);
@@ -248,12 +227,81 @@ impl NearPairs {
             pairs,
             taken: tris.to_vec(),
             reach,
+            grown,
+            age: vec![0; tris.len()],
+            grown_tree: tree,
             topology: mesh.wide().topology,
-            served: 1,
             walks: self.walks + 1,
         };
         Ok(())
     }
+
+    /// Takes triangles `left` again where they are now, each with a new
+    /// reach, and puts their pairs, from a query of the tree refitted on
+    /// the grown boxes, in place of their old ones. The others' pairs
+    /// stand: their grown boxes have not changed.
+    fn retake(
+        &mut self,
+        mesh: &MeshBvh,
+        left: &[u32],
+        boxes: &[Aabb],
+        moved: &[f32],
+        stop: &Deadline,
+    ) -> Result<()> {
+        let tris = mesh.leaf_triangles();
+        let mut again = vec![false; tris.len()];
+        for &x in left {
+            let x = x as usize;
+            again[x] = true;
+            let r = Self::reach_of(&boxes[x], moved[x], self.age[x]);
+            self.reach[x] = r;
+            self.grown[x] = Aabb::new(boxes[x].min - r, boxes[x].max + r);
+            self.taken[x] = tris[x];
+            self.age[x] = 0;
+        }
+        refit_on(&mut self.grown_tree, &self.grown);
+        let (ids, vertices, grown) = (mesh.prim_ids(), &self.vertices, &self.grown);
+        let tree = &self.grown_tree;
+        // Each new pair once: of two triangles taken again, from the lower
+        // slot.
+        let found = left
+            .par_chunks(CHUNK / 64)
+            .map(|chunk| {
+                stop.check()?;
+                let mut out = Vec::new();
+                for &x in chunk {
+                    let x = x as usize;
+                    let vx = &vertices[ids[x] as usize];
+                    tree.walk(&OverlapTest::new(grown[x]), 0.0, |first, count, _| {
+                        for y in first as usize..(first + count) as usize {
+                            if y != x
+                                && (!again[y] || x < y)
+                                && grown[x].overlaps(&grown[y])
+                                && !vx.iter().any(|v| vertices[ids[y] as usize].contains(v))
+                            {
+                                out.push((x as u32, y as u32));
+                            }
+                        }
+                        Flow::Continue(())
+                    });
+                }
+                Ok(out)
+            })
+            .collect::<Result<Vec<Vec<_>>>>()?;
+        self.pairs
+            .retain(|&(x, y)| !again[x as usize] && !again[y as usize]);
+        self.pairs.extend(found.into_iter().flatten());
+        Ok(())
+    }
+}
+
+/// Refits `tree` (the mesh's topology) on `grown`, each leaf slot's box.
+fn refit_on(tree: &mut Bvh4, grown: &[Aabb]) {
+    tree.refit(|first, count| {
+        grown[first as usize..(first + count) as usize]
+            .iter()
+            .fold(Aabb::EMPTY, |u, b| u.union(*b))
+    });
 }
 
 /// Per triangle, the farthest any corner moved along any axis from `taken`
@@ -351,6 +399,65 @@ mod tests {
         // A reach of SERVE_FRAMES frames' motion holds that many frames.
         let most = frames as f32 / SERVE_FRAMES + 2.0;
         assert!(near.walks() as f32 <= most, "{} walks", near.walks());
+    }
+
+    /// A resting sheet of 512 triangles and two blades of two triangles
+    /// each cutting through it and then through each other, speeding up at
+    /// different rates: the blades' triangles leave their reach again and
+    /// again, at different frames, and are taken again alone, and frame by
+    /// frame the list answers what a walk from the root answers, with one
+    /// walk in all.
+    #[test]
+    fn triangles_that_leave_their_reach_are_taken_again_alone() {
+        let side = 16;
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for j in 0..=side {
+            for i in 0..=side {
+                positions.push(Vec3::new(i as f32, j as f32, 0.0) / side as f32);
+            }
+        }
+        let at = |i: u32, j: u32| j * (side + 1) + i;
+        for j in 0..side {
+            for i in 0..side {
+                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        for first in [positions.len() as u32, positions.len() as u32 + 4] {
+            triangles.push([first, first + 1, first + 2]);
+            triangles.push([first + 1, first + 3, first + 2]);
+        }
+        let corners = [(0.0, -0.1), (0.0, 0.1), (1.0, -0.1), (1.0, 0.1)];
+        let blade = |frame: u32| {
+            let f2 = (frame * frame) as f32;
+            let (x, y) = (0.05 + 0.0004 * f2, 0.2 + 0.00025 * f2);
+            let mut p = positions.clone();
+            // One across the sheet's y, moving along x; one along x,
+            // moving along y.
+            for (s, z) in corners {
+                p.push(Vec3::new(x + 0.04 * s, 0.4 + 0.13 * s, z));
+            }
+            for (s, z) in corners {
+                p.push(Vec3::new(0.2 + 0.6 * s, y + 0.05 * s, z));
+            }
+            TriangleMesh::new(p, triangles.clone()).unwrap()
+        };
+        let mut bvh = MeshBvh::build(&blade(0), &BuildOptions::default());
+        let mut near = NearPairs::new(&blade(0));
+        let mut contacts = 0;
+        for frame in 0..45 {
+            let mesh = blade(frame);
+            bvh.refit(&mesh).unwrap();
+            let walked =
+                super::super::mesh_pairs::self_contact_slots(&bvh, None, &Deadline::none())
+                    .unwrap();
+            let listed = near.contact_slots(&bvh, &Deadline::none()).unwrap();
+            assert_eq!(sorted(listed), sorted(walked.clone()), "frame {frame}");
+            contacts += walked.len();
+        }
+        assert!(contacts > 100, "{contacts}");
+        assert_eq!(near.walks(), 1);
     }
 
     /// Pairs sharing a vertex are never listed; a mesh of another size is
