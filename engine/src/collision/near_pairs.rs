@@ -373,21 +373,15 @@ mod tests {
         pairs
     }
 
-    /// Frame by frame the list answers what a walk from the root answers,
-    /// while it is retaken only every several frames: a list kept while the
-    /// corners moved up to twice their reach (the two triangles closing in
-    /// from both sides) misses their first contacts.
-    #[test]
-    fn the_list_answers_as_the_walk_does_and_is_retaken_only_when_it_must_be() {
-        let (speed, gap) = (0.01, 0.6);
-        let first = approaching(0.0, speed, gap);
-        let mut bvh = MeshBvh::build(&first, &BuildOptions::default());
-        let mut near = NearPairs::new(&first);
+    /// Frames `0..frames` of `mesh`, each answered by a list kept over them
+    /// and checked against a walk from the root; the list, and the
+    /// contacts over all frames.
+    fn list_against_walk(frames: u32, mesh: impl Fn(u32) -> TriangleMesh) -> (NearPairs, usize) {
+        let mut bvh = MeshBvh::build(&mesh(0), &BuildOptions::default());
+        let mut near = NearPairs::new(&mesh(0));
         let mut contacts = 0;
-        let frames = 60;
         for frame in 0..frames {
-            let mesh = approaching(frame as f32, speed, gap);
-            bvh.refit(&mesh).unwrap();
+            bvh.refit(&mesh(frame)).unwrap();
             let walked =
                 super::super::mesh_pairs::self_contact_slots(&bvh, None, &Deadline::none())
                     .unwrap();
@@ -395,6 +389,18 @@ mod tests {
             assert_eq!(sorted(listed), sorted(walked.clone()), "frame {frame}");
             contacts += walked.len();
         }
+        (near, contacts)
+    }
+
+    /// Frame by frame the list answers what a walk from the root answers,
+    /// while it is retaken only every several frames: a list kept while the
+    /// corners moved up to twice their reach (the two triangles closing in
+    /// from both sides) misses their first contacts.
+    #[test]
+    fn the_list_answers_as_the_walk_does_and_is_retaken_only_when_it_must_be() {
+        let (speed, gap) = (0.01, 0.6);
+        let frames = 60;
+        let (near, contacts) = list_against_walk(frames, |f| approaching(f as f32, speed, gap));
         assert!(contacts > 10, "{contacts}");
         // A reach of SERVE_FRAMES frames' motion holds that many frames.
         let most = frames as f32 / SERVE_FRAMES + 2.0;
@@ -443,19 +449,7 @@ mod tests {
             }
             TriangleMesh::new(p, triangles.clone()).unwrap()
         };
-        let mut bvh = MeshBvh::build(&blade(0), &BuildOptions::default());
-        let mut near = NearPairs::new(&blade(0));
-        let mut contacts = 0;
-        for frame in 0..45 {
-            let mesh = blade(frame);
-            bvh.refit(&mesh).unwrap();
-            let walked =
-                super::super::mesh_pairs::self_contact_slots(&bvh, None, &Deadline::none())
-                    .unwrap();
-            let listed = near.contact_slots(&bvh, &Deadline::none()).unwrap();
-            assert_eq!(sorted(listed), sorted(walked.clone()), "frame {frame}");
-            contacts += walked.len();
-        }
+        let (near, contacts) = list_against_walk(45, blade);
         assert!(contacts > 100, "{contacts}");
         assert_eq!(near.walks(), 1);
     }
