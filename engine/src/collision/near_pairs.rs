@@ -287,7 +287,16 @@ impl NearPairs {
                 }
                 Ok(out)
             })
-            .collect::<Result<Vec<Vec<_>>>>()?;
+            .collect::<Result<Vec<Vec<_>>>>();
+        let found = match found {
+            Ok(found) => found,
+            Err(e) => {
+                // Cut short, the triangles are taken but their pairs are
+                // not: the next frame takes the whole list again.
+                self.taken.clear();
+                return Err(e);
+            }
+        };
         self.pairs
             .retain(|&(x, y)| !again[x as usize] && !again[y as usize]);
         self.pairs.extend(found.into_iter().flatten());
@@ -377,11 +386,27 @@ mod tests {
     /// and checked against a walk from the root; the list, and the
     /// contacts over all frames.
     fn list_against_walk(frames: u32, mesh: impl Fn(u32) -> TriangleMesh) -> (NearPairs, usize) {
+        list_against_walk_cut(frames, mesh, false)
+    }
+
+    /// [`list_against_walk`], every frame first asked with a deadline
+    /// already past when `cut` (an error or an answer, either is fine, but
+    /// the list must answer right after).
+    fn list_against_walk_cut(
+        frames: u32,
+        mesh: impl Fn(u32) -> TriangleMesh,
+        cut: bool,
+    ) -> (NearPairs, usize) {
         let mut bvh = MeshBvh::build(&mesh(0), &BuildOptions::default());
         let mut near = NearPairs::new(&mesh(0));
         let mut contacts = 0;
         for frame in 0..frames {
             bvh.refit(&mesh(frame)).unwrap();
+            if cut {
+                let past =
+                    Deadline::new(Some(std::time::Instant::now()), std::time::Instant::now());
+                let _ = near.contact_slots(&bvh, &past);
+            }
             let walked =
                 super::super::mesh_pairs::self_contact_slots(&bvh, None, &Deadline::none())
                     .unwrap();
@@ -412,7 +437,8 @@ mod tests {
     /// different rates: the blades' triangles leave their reach again and
     /// again, at different frames, and are taken again alone, and frame by
     /// frame the list answers what a walk from the root answers, with one
-    /// walk in all.
+    /// walk in all; and so it does when every frame is first cut short by
+    /// its deadline.
     #[test]
     fn triangles_that_leave_their_reach_are_taken_again_alone() {
         let side = 16;
@@ -452,6 +478,8 @@ mod tests {
         let (near, contacts) = list_against_walk(45, blade);
         assert!(contacts > 100, "{contacts}");
         assert_eq!(near.walks(), 1);
+        // Cut short every frame, retakes included, it still answers right.
+        list_against_walk_cut(45, blade, true);
     }
 
     /// Pairs sharing a vertex are never listed; a mesh of another size is
