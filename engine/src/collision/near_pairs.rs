@@ -11,8 +11,9 @@
 //! now, a reach from how fast it moved, and its pairs from a query of the
 //! tree refitted on the grown boxes, in place of its old ones. So every
 //! triangle is held when a frame tests the list's pairs, and the walk from
-//! the root runs again only when the tree's topology changes or more than
-//! one triangle in [`RETAKE_SHARE`] leaves at once. Each triangle's reach
+//! the root runs again only when the tree's topology changes, more than
+//! one triangle in [`RETAKE_SHARE`] leaves at once, or a retake was cut
+//! short by the deadline. Each triangle's reach
 //! is what it moved per frame since it was taken, times [`SERVE_FRAMES`],
 //! up to half its box's size: resting parts of a cloth list only the
 //! pairs that touch, moving ones their neighbourhood.
