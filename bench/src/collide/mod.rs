@@ -29,6 +29,7 @@ use serde::Serialize;
 
 use crate::provenance::{self, Provenance};
 use crate::report::aligned;
+use crate::serve::Latency;
 use crate::stats::median;
 
 #[derive(clap::Args)]
@@ -76,6 +77,9 @@ struct Run {
     front: bool,
     frames: usize,
     ms_per_frame: f64,
+    /// The 90th percentile of the frames' times (nearest rank), median
+    /// over rounds.
+    p90_frame_ms: f64,
     refit_ms: f64,
     query_ms: f64,
     /// Intersecting triangle pairs, summed over the frames.
@@ -188,6 +192,8 @@ type Frames = Vec<Vec<(u32, u32)>>;
 struct Replay {
     refit_ms: f64,
     query_ms: f64,
+    /// Each frame's refit and query.
+    frame_ms: Vec<f64>,
     pairs: Frames,
 }
 
@@ -196,8 +202,23 @@ impl Replay {
         Self {
             refit_ms: 0.0,
             query_ms: 0.0,
+            frame_ms: Vec::new(),
             pairs: Vec::new(),
         }
+    }
+
+    /// Counts one frame: its refit and query times and its pairs.
+    fn frame(&mut self, refit_ms: f64, query_ms: f64, pairs: Vec<(u32, u32)>) {
+        self.refit_ms += refit_ms;
+        self.query_ms += query_ms;
+        self.frame_ms.push(refit_ms + query_ms);
+        self.pairs.push(pairs);
+    }
+
+    /// The frame time nine frames in ten stay within: where a front
+    /// renews itself every few frames, those frames show here.
+    fn p90_ms(&self) -> f64 {
+        Latency::of(self.frame_ms.clone()).map_or(0.0, |l| l.p90)
     }
 }
 
@@ -221,11 +242,10 @@ fn ours(case: &Case, obb: bool, front: bool) -> Result<Replay, String> {
                 if let Some(o) = &mut obbs {
                     o.refit(&bvh);
                 }
-                replay.refit_ms += ms(t);
+                let refit_ms = ms(t);
                 let t = Instant::now();
                 let pairs = mesh_self_contacts(&bvh, obbs.as_ref(), near.as_mut()).map_err(err)?;
-                replay.query_ms += ms(t);
-                replay.pairs.push(pairs);
+                replay.frame(refit_ms, ms(t), pairs);
             }
         }
         Motion::Move(poses) => {
@@ -242,8 +262,7 @@ fn ours(case: &Case, obb: bool, front: bool) -> Result<Replay, String> {
                     ..a
                 };
                 let pairs = mesh_contacts(a, b, kept.as_mut()).map_err(err)?;
-                replay.query_ms += ms(t);
-                replay.pairs.push(pairs);
+                replay.frame(0.0, ms(t), pairs);
             }
         }
     }
@@ -259,18 +278,17 @@ fn peer(case: &Case) -> Replay {
             for f in frames {
                 let t = Instant::now();
                 parry::refit(&mut mesh, f.positions());
-                replay.refit_ms += ms(t);
+                let refit_ms = ms(t);
                 let t = Instant::now();
-                replay.pairs.push(parry::self_pairs(&mesh));
-                replay.query_ms += ms(t);
+                let pairs = parry::self_pairs(&mesh);
+                replay.frame(refit_ms, ms(t), pairs);
             }
         }
         Motion::Move(poses) => {
             for pose in poses {
                 let t = Instant::now();
                 let pairs = parry::pairs(&mesh, &mesh, pose.rotation, pose.translation);
-                replay.query_ms += ms(t);
-                replay.pairs.push(pairs);
+                replay.frame(0.0, ms(t), pairs);
             }
         }
     }
@@ -333,7 +351,7 @@ fn run_case(
     with_peer: bool,
 ) -> Result<Vec<Run>, String> {
     let n = variants.len();
-    let mut times: Vec<Vec<(f64, f64)>> = vec![Vec::new(); n + 1];
+    let mut times: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new(); n + 1];
     let mut answers: Vec<Option<Frames>> = vec![None; n + 1];
     for round in 0..rounds.max(1) {
         // Rotate who goes first, so no variant always runs on a warm cache.
@@ -348,7 +366,7 @@ fn run_case(
                 let (bv, front) = variants[v];
                 ours(case, bv == "obb", front)?
             };
-            times[v].push((replay.refit_ms, replay.query_ms));
+            times[v].push((replay.refit_ms, replay.query_ms, replay.p90_ms()));
             answers[v].get_or_insert(replay.pairs);
         }
     }
@@ -363,11 +381,12 @@ fn run_case(
         }
     }
     let frames = case.frames().max(1) as f64;
-    let per_frame = |t: &[(f64, f64)]| {
+    let per_frame = |t: &[(f64, f64, f64)]| {
         (
             median(t.iter().map(|x| (x.0 + x.1) / frames).collect()),
             median(t.iter().map(|x| x.0 / frames).collect()),
             median(t.iter().map(|x| x.1 / frames).collect()),
+            median(t.iter().map(|x| x.2).collect()),
         )
     };
     let peer_answer = answers[n].as_ref();
@@ -379,7 +398,7 @@ fn run_case(
         .iter()
         .enumerate()
         .map(|(v, &(bv, front))| {
-            let (total, refit, query) = per_frame(&times[v]);
+            let (total, refit, query, p90) = per_frame(&times[v]);
             Run {
                 case: case.name.clone(),
                 kind: case.kind(),
@@ -388,6 +407,7 @@ fn run_case(
                 front,
                 frames: case.frames(),
                 ms_per_frame: total,
+                p90_frame_ms: p90,
                 refit_ms: refit,
                 query_ms: query,
                 pairs: reference.iter().map(Vec::len).sum(),
@@ -449,6 +469,7 @@ fn table(report: &Report, provenance: &Provenance, args: &Args) -> String {
     let mut out = provenance.header();
     out += &format!(
         "\n{} frames per case, median of {} rounds; ms per frame = refit + query; \
+         p90 = the frame time nine frames in ten stay within; \
          pairs summed over frames (exact); parry3d: AABB tree, no front, its GJK \
          intersection test: extra = pairs it reports that do not intersect, max dist = \
          the farthest apart of those, missed = intersecting pairs it does not report\n\n",
@@ -462,6 +483,7 @@ fn table(report: &Report, provenance: &Provenance, args: &Args) -> String {
         "bv",
         "front",
         "ms/frame",
+        "p90",
         "refit",
         "query",
         "pairs",
@@ -482,6 +504,7 @@ fn table(report: &Report, provenance: &Provenance, args: &Args) -> String {
             r.bv.into(),
             if r.front { "yes" } else { "no" }.into(),
             format!("{:.2}", r.ms_per_frame),
+            format!("{:.2}", r.p90_frame_ms),
             format!("{:.2}", r.refit_ms),
             format!("{:.2}", r.query_ms),
             r.pairs.to_string(),
