@@ -118,6 +118,11 @@ pub struct StatsOut {
     pub tail: Option<TailStatsOut>,
     pub total_ms: f64,
     pub threads: usize,
+    /// The request's `lod_error_m`: the error bound of the simplified
+    /// geometry this was computed on, m (0: exact geometry). With a bound,
+    /// paths name the original triangle each polygon stands for.
+    #[serde(default)]
+    pub lod_error_m: f32,
 }
 
 /// What tracing the late reverberation of this source took (shared by its
@@ -196,6 +201,7 @@ impl From<&Response> for PairResponse {
                 }),
                 total_ms: stats.total_ms,
                 threads: stats.threads,
+                lod_error_m: stats.lod_error_m,
             },
             sample_rate: ir.sample_rate,
             channels: ir.channels.len(),

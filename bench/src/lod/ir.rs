@@ -1,5 +1,5 @@
 //! Impulse responses with levels of detail: the hall simplified at each
-//! bound ([`simplify_scene`]: every highest node of error below the bound
+//! bound ([`AcousticScene::simplified`]: every highest node of error below the bound
 //! one polygon), traced with its tail beside the same on exact geometry:
 //! time, frusta, and the error in energy per band and in ISO 3382
 //! parameters.
@@ -14,7 +14,6 @@ use std::time::{Duration, Instant};
 use frusta_engine::acoustics::{
     simulate_until, AcousticScene, CellAssignment, Response, SimulationOptions, Tail,
 };
-use frusta_engine::bvh::lod::simplify_scene;
 use frusta_engine::scene::{Scene, OCTAVE_BANDS_HZ};
 use glam::DVec3;
 
@@ -59,18 +58,22 @@ pub fn runs(
     }];
     for &bound in bounds {
         let start = Instant::now();
-        let (simple, polygons) = simplify_scene(scene, bound).map_err(|e| e.to_string())?;
+        let simple = AcousticScene::simplified(scene, bound).map_err(|e| e.to_string())?;
+        let triangles = simple
+            .bvh()
+            .instances()
+            .iter()
+            .map(|i| i.bvh().triangle_count())
+            .sum();
+        let polygons = simple.lod().map_or(0, |l| l.polygons);
         geometries.push(Geometry {
             bound,
-            scene: AcousticScene::new(&simple),
-            triangles: simple.triangle_count(),
+            scene: simple,
+            triangles,
             polygons,
             setup_ms: ms_since(start),
         });
-        eprintln!(
-            "{name} at {bound} m: {} triangles, {polygons} polygons",
-            simple.triangle_count()
-        );
+        eprintln!("{name} at {bound} m: {triangles} triangles, {polygons} polygons");
     }
     let points = ([source.as_vec3()], [listener.as_vec3()]);
     let mut rows = Vec::new();

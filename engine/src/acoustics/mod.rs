@@ -47,7 +47,7 @@ pub use propagation::{
     simulate, simulate_cached, simulate_until, Response, SimulationOptions, SoundPath,
     SurfaceShare, MAX_SOURCE_REUSE_M,
 };
-pub use scene::{AcousticScene, FoundPaths};
+pub use scene::{AcousticScene, FoundPaths, Lod};
 pub use tail::{Tail, TailOptions};
 pub use tracer::{CellAssignment, TraceOptions, TraceStats};
 

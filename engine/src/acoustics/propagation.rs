@@ -252,6 +252,9 @@ pub struct SimulationStats {
     pub tail: Option<TailStats>,
     pub total_ms: f64,
     pub threads: usize,
+    /// The level-of-detail bound of the geometry this was computed on, m
+    /// (0: exact; see [`AcousticScene::simplified`]).
+    pub lod_error_m: f32,
 }
 
 /// What one listener hears from one source.
@@ -481,6 +484,7 @@ fn simulate_with(
                     tail: tail.as_ref().map(|t| t.stats.clone()),
                     total_ms: start.elapsed().as_secs_f64() * 1e3,
                     threads: rayon::current_num_threads(),
+                    lod_error_m: scene.lod_error_m(),
                 },
                 paths: sound_paths,
                 parameters,
@@ -580,7 +584,8 @@ fn sound_path(
 }
 
 /// What a path meets at one point: `(object, mesh-order triangle)` of
-/// plane group `group`, named as answers name them.
+/// plane group `group`, named as answers name them (on a simplified scene,
+/// the original triangle).
 fn surface_event(
     scene: &AcousticScene,
     (object, triangle): (u32, u32),
@@ -595,7 +600,7 @@ fn surface_event(
             .get(object as usize)
             .cloned()
             .unwrap_or_default(),
-        triangle,
+        triangle: scene.original_triangle(object, triangle),
         material: scene
             .materials()
             .get(material)

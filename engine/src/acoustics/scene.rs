@@ -10,6 +10,7 @@ use super::diffraction::{EdgeScene, Edges};
 use super::path::{dedup_paths, validate, Event, ValidPath};
 use super::surfaces::Surfaces;
 use super::tracer::{trace, trace_beams, TraceInput, TraceOptions, TraceStats};
+use crate::bvh::lod::simplify_scene;
 use crate::bvh::{BuildOptions, UpdateReport};
 use crate::deadline::Deadline;
 use crate::geometry::{RigidTransform, TriangleMesh, MAX_COORDINATE};
@@ -32,6 +33,22 @@ pub struct AcousticScene {
     revision: u64,
     /// This state's identity for caches, new with every change.
     state: u64,
+    /// Set when the scene stands for another within an error bound.
+    lod: Option<Lod>,
+}
+
+/// How a [simplified](AcousticScene::simplified) scene stands for the one
+/// it was made from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lod {
+    /// The bound, m: every corner of the original lies within it of the
+    /// simplified geometry.
+    pub max_error_m: f32,
+    /// Nodes of the objects' trees replaced by one polygon each.
+    pub polygons: usize,
+    /// Per object, per triangle, the original triangle it stands for:
+    /// what answers name.
+    origins: Vec<Vec<u32>>,
 }
 
 /// States come from one process-wide counter, so two scenes share one only
@@ -63,7 +80,51 @@ impl AcousticScene {
             edges,
             revision: 0,
             state: next_state(),
+            lod: None,
         }
+    }
+
+    /// The acoustic scene of `scene` with every object's tree cut where
+    /// its level of detail first has an error below `max_error_m` (see
+    /// [`simplify_scene`]): features smaller than the bound cost no frusta.
+    /// A bound of 0 is the exact scene. Answers on the result name the
+    /// original triangles (the one each polygon stands for) and report the
+    /// bound ([`SimulationStats::lod_error_m`]).
+    ///
+    /// [`SimulationStats::lod_error_m`]: super::SimulationStats::lod_error_m
+    pub fn simplified(scene: &Scene, max_error_m: f32) -> Result<Self> {
+        if max_error_m == 0.0 {
+            return Ok(Self::new(scene));
+        }
+        let simple = simplify_scene(scene, max_error_m)?;
+        let mut out = Self::new(&simple.scene);
+        out.lod = Some(Lod {
+            max_error_m,
+            polygons: simple.polygons,
+            origins: simple.origins,
+        });
+        Ok(out)
+    }
+
+    /// How this scene stands for another, if it was simplified.
+    pub fn lod(&self) -> Option<&Lod> {
+        self.lod.as_ref()
+    }
+
+    /// The error bound of the geometry answers are computed on, m (0:
+    /// exact).
+    pub fn lod_error_m(&self) -> f32 {
+        self.lod.as_ref().map_or(0.0, |l| l.max_error_m)
+    }
+
+    /// The triangle of the scene this one stands for that `triangle`
+    /// (mesh order) of `object` is, or stands for.
+    pub fn original_triangle(&self, object: u32, triangle: u32) -> u32 {
+        self.lod
+            .as_ref()
+            .and_then(|l| l.origins.get(object as usize)?.get(triangle as usize))
+            .copied()
+            .unwrap_or(triangle)
     }
 
     /// How many changes ([`Self::set_transform`], [`Self::update_mesh`],
@@ -148,6 +209,12 @@ impl AcousticScene {
         materials: &[MaterialId],
         threshold: f32,
     ) -> Result<UpdateReport> {
+        if self.lod.is_some() {
+            // Its triangles are not the mesh's: simplify the new scene.
+            return self.changed(Err(Error::InvalidScene(
+                "a simplified scene takes no new vertices: simplify the updated scene".into(),
+            )));
+        }
         let result = self.bvh.update_mesh(object, mesh, materials, threshold);
         if result.is_ok() {
             self.surfaces.update_object(&self.bvh, object);

@@ -62,33 +62,47 @@ pub fn simplify(mesh: &TriangleMesh, max_error: f32) -> Result<Simplified> {
     cut(mesh, &bvh, &lods, max_error)
 }
 
+/// A scene with every object [simplified](simplify) in its own frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimplifiedScene {
+    pub scene: Scene,
+    /// Per object, per triangle of its simplified mesh, the original
+    /// triangle it stands for (see [`Simplified::origin`]).
+    pub origins: Vec<Vec<u32>>,
+    /// Nodes replaced by their polygons, over all objects.
+    pub polygons: usize,
+}
+
 /// `scene` with every object [simplified](simplify) in its own frame, each
-/// polygon of the material of the triangle it stands for. Also returns
-/// how many nodes became polygons.
-pub fn simplify_scene(scene: &Scene, max_error: f32) -> Result<(Scene, usize)> {
+/// polygon of the material of the triangle it stands for.
+pub fn simplify_scene(scene: &Scene, max_error: f32) -> Result<SimplifiedScene> {
     let mut polygons = 0;
+    let mut origins = Vec::with_capacity(scene.objects.len());
     let objects = scene
         .objects
         .iter()
         .map(|o| {
             let s = simplify(&o.mesh, max_error)?;
             polygons += s.polygons;
-            Ok(SceneObject {
+            let object = SceneObject {
                 materials: s.origin.iter().map(|&t| o.materials[t as usize]).collect(),
                 mesh: s.mesh,
                 name: o.name.clone(),
                 transform: o.transform,
                 dynamic: o.dynamic,
-            })
+            };
+            origins.push(s.origin);
+            Ok(object)
         })
         .collect::<Result<_>>()?;
-    Ok((
-        Scene {
+    Ok(SimplifiedScene {
+        scene: Scene {
             materials: scene.materials.clone(),
             objects,
         },
+        origins,
         polygons,
-    ))
+    })
 }
 
 /// [`simplify`] with the tree and its planes at hand.
@@ -429,9 +443,10 @@ mod tests {
             .push(Material::uniform("floor", 0.5).unwrap());
         let count = scene.objects[0].materials.len();
         scene.objects[0].materials[count - 2..].fill(1);
-        let (simple, polygons) = simplify_scene(&scene, 0.4).unwrap();
-        assert!(polygons > 0);
-        let o = &simple.objects[0];
+        let simple = simplify_scene(&scene, 0.4).unwrap();
+        assert!(simple.polygons > 0);
+        let o = &simple.scene.objects[0];
+        assert_eq!(simple.origins[0].len(), o.mesh.triangle_count());
         assert!(o.mesh.triangle_count() < count);
         for (t, &m) in o.materials.iter().enumerate() {
             let on_floor = o.mesh.corners(t).iter().all(|p| p.z == 0.0);
