@@ -28,6 +28,9 @@ pub struct StreamUpdate {
     #[serde(skip_serializing_if = "Option::is_none")]
     #[schema(value_type = Option<Object>)]
     pub options: Option<SimulationOptions>,
+    /// Levels of detail, as the impulse-response route's `lod_error_m`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lod_error_m: Option<f32>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub objects: Option<Vec<ObjectMove>>,
     /// Subscribes to collision results, replacing an earlier subscription:

@@ -21,6 +21,7 @@ use crate::auth::{self, digest};
 use crate::compute::ComputePool;
 use crate::config::{Config, Limits};
 use crate::error::ApiError;
+use crate::lod_cache::LodCache;
 use crate::metrics::{self, Metrics};
 use crate::registry::Registry;
 use crate::routes::{
@@ -51,6 +52,8 @@ struct Inner {
     tasks: TaskTracker,
     /// The shadow data of the scene last asked about.
     shadows: ShadowCache,
+    /// Scenes simplified for impulse responses with levels of detail.
+    lods: LodCache,
 }
 
 impl AppState {
@@ -73,6 +76,7 @@ impl AppState {
             shutdown: CancellationToken::new(),
             tasks: TaskTracker::new(),
             shadows: ShadowCache::default(),
+            lods: LodCache::default(),
         }));
         state.refresh_scene_gauges();
         state
@@ -104,6 +108,10 @@ impl AppState {
 
     pub fn shadow_cache(&self) -> &ShadowCache {
         &self.0.shadows
+    }
+
+    pub fn lod_cache(&self) -> &LodCache {
+        &self.0.lods
     }
 
     pub fn streams(&self) -> &Arc<Semaphore> {

@@ -13,6 +13,7 @@ mod compute;
 pub mod config;
 mod connections;
 mod error;
+mod lod_cache;
 mod metrics;
 mod registry;
 mod routes;

@@ -18,6 +18,7 @@ use frusta_api::impulse_responses::Point;
 
 use crate::config::Limits;
 use crate::error::ApiError;
+use crate::lod_cache::LodCache;
 use crate::registry::SceneEntry;
 
 /// Sources, listeners and options; every option has a default.
@@ -25,24 +26,32 @@ use crate::registry::SceneEntry;
 pub struct IrRequest {
     pub sources: Vec<Vec3>,
     pub listeners: Vec<Vec3>,
+    /// The level-of-detail bound, m (0: exact geometry).
+    pub lod_error_m: f32,
     pub options: SimulationOptions,
 }
 
 impl IrRequest {
-    /// Reads `{"sources": [...], "listeners": [...], <options>...}`; the
-    /// options are the engine's `SimulationOptions` fields, and an unknown
-    /// field is an error that names it.
+    /// Reads `{"sources": [...], "listeners": [...], "lod_error_m": m,
+    /// <options>...}`; the options are the engine's `SimulationOptions`
+    /// fields, and an unknown field is an error that names it.
     pub fn from_json(value: Value, limits: &Limits) -> Result<Self, ApiError> {
         let Value::Object(mut fields) = value else {
             return Err(ApiError::Invalid("the body must be a JSON object".into()));
         };
         let sources = points(&mut fields, "sources")?;
         let listeners = points(&mut fields, "listeners")?;
+        let lod_error_m = match fields.remove("lod_error_m") {
+            Some(v) => serde_json::from_value(v)
+                .map_err(|e| ApiError::Invalid(format!("lod_error_m: {e}")))?,
+            None => 0.0,
+        };
         let options: SimulationOptions = serde_json::from_value(Value::Object(fields))
             .map_err(|e| ApiError::Invalid(format!("options: {e}")))?;
         let request = Self {
             sources,
             listeners,
+            lod_error_m,
             options,
         };
         request.check(limits)?;
@@ -51,6 +60,12 @@ impl IrRequest {
 
     /// The server's caps; the engine checks everything else.
     pub fn check(&self, limits: &Limits) -> Result<(), ApiError> {
+        if !(self.lod_error_m.is_finite() && self.lod_error_m >= 0.0) {
+            return Err(ApiError::Invalid(format!(
+                "lod_error_m must be a finite distance of at least 0 m, not {}",
+                self.lod_error_m
+            )));
+        }
         let pairs = self.sources.len() * self.listeners.len();
         if pairs > limits.max_pairs {
             return Err(ApiError::LimitExceeded(format!(
@@ -155,7 +170,10 @@ impl Drop for CancelOnDrop {
     }
 }
 
-/// Simulates under the scene's read lock, within the compute limit. With a
+/// Simulates under the scene's read lock, within the compute limit, on the
+/// scene simplified within the request's `lod_error_m` where it has one
+/// (made or taken from `lods`; making it is not bounded by the compute
+/// limit, and is done once per scene state and bound). With a
 /// `cache` (a stream), the frusta traced from unchanged sources are kept
 /// for moving listeners; the engine drops them when the geometry,
 /// materials or options change. Without one (a one-off request), listeners
@@ -166,11 +184,16 @@ pub fn run(
     cache: Option<&mut BeamCache>,
     cancel: Option<&Cancel>,
     limits: &Limits,
+    lods: &LodCache,
 ) -> Result<(u64, Vec<Response>), ApiError> {
     let live = entry.read();
+    let simplified = match request.lod_error_m {
+        0.0 => None,
+        bound => Some(lods.get(&live, bound)?),
+    };
     let deadline = Instant::now() + limits.max_compute();
     let (scene, sources, listeners, options) = (
-        &live.acoustic,
+        simplified.as_deref().unwrap_or(&live.acoustic),
         &request.sources,
         &request.listeners,
         &request.options,

@@ -46,6 +46,7 @@ impl ImpulseResponseRequest {
         Self {
             sources: vec![source.into()],
             listeners: vec![listener.into()],
+            lod_error_m: 0.0,
             options,
         }
     }
@@ -59,6 +60,10 @@ impl ImpulseResponseRequest {
 pub struct ImpulseResponseRequest {
     pub sources: Vec<Point>,
     pub listeners: Vec<Point>,
+    /// Levels of detail: the scene simplified so that every corner lies
+    /// within this many metres of the geometry traced (0: exact).
+    #[serde(default)]
+    pub lod_error_m: f32,
     #[serde(flatten)]
     pub options: SimulationOptions,
 }
@@ -288,6 +293,16 @@ impl PartialSchema for ImpulseResponseRequest {
                 "listeners",
                 points("Listeners; one response per source-listener pair"),
             )
+            .property(
+                "lod_error_m",
+                ObjectBuilder::new()
+                    .schema_type(Type::Number)
+                    .description(Some(
+                        "Levels of detail: each object is simplified, every part of its tree whose surface lies within this many metres of a plane becoming one polygon, and the request is answered on that (0: exact geometry). Features smaller than the bound cost no frusta; answers report the bound in stats.lod_error_m and name the original triangle each polygon stands for. A scene's simplification is made once per bound and kept until it changes",
+                    ))
+                    .default(Some(0.0.into()))
+                    .minimum(Some(0.0)),
+            )
             .required("sources")
             .required("listeners")
             .additional_properties(Some(AdditionalProperties::FreeForm(false)));
@@ -314,7 +329,7 @@ mod tests {
             panic!("an object schema");
         };
         let mut documented: Vec<&str> = body.properties.keys().map(String::as_str).collect();
-        documented.retain(|name| !["sources", "listeners"].contains(name));
+        documented.retain(|name| !["sources", "listeners", "lod_error_m"].contains(name));
         documented.sort_unstable();
         let options = serde_json::to_value(SimulationOptions::default()).expect("options");
         let mut taken: Vec<&str> = options

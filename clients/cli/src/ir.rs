@@ -63,8 +63,8 @@ impl IrArgs {
 }
 
 pub fn run(args: &IrArgs) -> Result<(), Box<dyn Error>> {
-    let scene = AcousticScene::new(&args.scene()?);
     let sim = &args.simulation;
+    let scene = AcousticScene::simplified(&args.scene()?, sim.lod_error)?;
     let response = simulate(&scene, &[sim.source], &[sim.listener], &sim.options())?
         .pop()
         .ok_or("no response")?;

@@ -60,6 +60,10 @@ pub struct SimulationArgs {
     /// again, m (within it they are re-mirrored; 0: trace every move).
     #[arg(long, default_value_t = SimulationOptions::default().source_reuse_m)]
     source_reuse: f64,
+    /// Levels of detail: simplify every object within this many metres
+    /// (features smaller than it cost no frusta; 0: exact geometry).
+    #[arg(long, default_value_t = 0.0)]
+    pub lod_error: f32,
 }
 
 impl SimulationArgs {

@@ -47,12 +47,21 @@ pub async fn create(
             "a WAV file holds one impulse response: ask for one source and one listener, or for JSON".into(),
         ));
     }
-    let limits = state.limits().clone();
     let cancel = Cancel::new();
     let _cancel_on_drop = CancelOnDrop(cancel.clone());
+    let job = state.clone();
     let (revision, responses) = state
         .compute()
-        .run(move || simulation::run(&entry, &request, None, Some(&cancel), &limits))
+        .run(move || {
+            simulation::run(
+                &entry,
+                &request,
+                None,
+                Some(&cancel),
+                job.limits(),
+                job.lod_cache(),
+            )
+        })
         .await??;
     let metrics = state.metrics();
     metrics.impulse_responses.inc_by(responses.len() as u64);
@@ -176,6 +185,49 @@ mod tests {
         // it ends after the last first-order path.
         assert!(frames[0] > 8000 && frames[1] > 8000, "{frames:?}");
         assert!(frames[2] < 2000, "{frames:?}");
+    }
+
+    /// With `lod_error_m` the answer is computed on the scene simplified
+    /// within it and says so; the box's walls and panel are flat, so they
+    /// stay as they are and the paths are the exact ones. A bound that is
+    /// not a distance of at least 0 is a 422 naming it.
+    #[tokio::test]
+    async fn levels_of_detail_are_reported_and_bad_bounds_refused() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let post = |body: Value| post_json("/v1/scenes/box/impulse-responses", &body.to_string());
+        let ask = |lod: Value| {
+            let mut body = json!({
+                "sources": [{"position": [2, 3, 1.5]}],
+                "listeners": [{"position": [7, 3, 1.2]}],
+                "max_order": 2, "sample_rate": 8000, "tail": "none"
+            });
+            if !lod.is_null() {
+                body["lod_error_m"] = lod;
+            }
+            post(body)
+        };
+        let (status, _, exact) = server.send(ask(Value::Null)).await;
+        assert_eq!(status, StatusCode::OK, "{exact}");
+        let (status, _, lod) = server.send(ask(json!(0.5))).await;
+        assert_eq!(status, StatusCode::OK, "{lod}");
+        let (exact, lod) = (&exact["responses"][0], &lod["responses"][0]);
+        assert_eq!(exact["stats"]["lod_error_m"], 0.0);
+        assert_eq!(lod["stats"]["lod_error_m"], 0.5);
+        assert_eq!(lod["paths"], exact["paths"]);
+        for bad in [json!(-1), json!("far"), json!(null)] {
+            let body = json!({
+                "sources": [{"position": [2, 3, 1.5]}],
+                "listeners": [{"position": [7, 3, 1.2]}],
+                "lod_error_m": bad
+            });
+            let (status, _, problem) = server.send(post(body)).await;
+            assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{bad}: {problem}");
+            assert!(
+                problem["detail"].as_str().unwrap().contains("lod_error_m"),
+                "{problem}"
+            );
+        }
     }
 
     #[tokio::test]

@@ -230,6 +230,11 @@ impl Stream {
             (Some(l), _) => Some(simulation::positions("listeners", l)?),
             (None, b) => b.map(|b| b.listeners.clone()),
         };
+        let lod_error_m = match (update.lod_error_m, base) {
+            (Some(bound), _) => bound,
+            (None, Some(b)) => b.lod_error_m,
+            (None, None) => 0.0,
+        };
         let options = match (update.options, base) {
             (Some(o), _) => o,
             (None, Some(b)) => b.options.clone(),
@@ -257,6 +262,7 @@ impl Stream {
                 let request = IrRequest {
                     sources,
                     listeners,
+                    lod_error_m,
                     options,
                 };
                 request.check(self.state.limits())?;
@@ -335,7 +341,14 @@ impl Stream {
                     let (revision, responses) = match &request {
                         Some(r) => {
                             let cache = Some(&mut cache);
-                            simulation::run(&entry, r, cache, Some(&cancel), job_state.limits())?
+                            simulation::run(
+                                &entry,
+                                r,
+                                cache,
+                                Some(&cancel),
+                                job_state.limits(),
+                                job_state.lod_cache(),
+                            )?
                         }
                         None => (entry.read().acoustic.revision(), Vec::new()),
                     };
@@ -474,6 +487,30 @@ mod tests {
         assert_eq!(edit.translation, Some([0.0, 1.0, 0.0]));
         let top = edit.vertices.as_ref().unwrap()[2].z;
         assert!((top - 2.299).abs() < 1e-6, "{top}");
+    }
+
+    /// A stream's level-of-detail bound is kept until an update changes
+    /// it; a bad one is refused and changes nothing.
+    #[tokio::test]
+    async fn the_level_of_detail_bound_is_kept_across_updates() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let mut stream = stream(&server);
+        let points =
+            r#""sources": [{"position": [2, 3, 1.5]}], "listeners": [{"position": [7, 3, 1.2]}]"#;
+        stream
+            .merge(&format!(r#"{{{points}, "lod_error_m": 0.5}}"#))
+            .unwrap();
+        let bound = |s: &Stream| s.pending.request.as_ref().map(|r| r.lod_error_m);
+        assert_eq!(bound(&stream), Some(0.5));
+        stream
+            .merge(r#"{"listeners": [{"position": [6, 3, 1.2]}]}"#)
+            .unwrap();
+        assert_eq!(bound(&stream), Some(0.5));
+        assert!(stream.merge(r#"{"lod_error_m": -1}"#).is_err());
+        assert_eq!(bound(&stream), Some(0.5));
+        stream.merge(r#"{"lod_error_m": 0}"#).unwrap();
+        assert_eq!(bound(&stream), Some(0.0));
     }
 
     #[tokio::test]

@@ -15,7 +15,10 @@ use crate::report;
 
 pub fn run(client: &Client, scene_id: &str, args: &IrArgs) -> Result<(), Box<dyn Error>> {
     let sim = &args.simulation;
-    let request = ImpulseResponseRequest::pair(sim.source, sim.listener, sim.options());
+    let request = ImpulseResponseRequest {
+        lod_error_m: sim.lod_error,
+        ..ImpulseResponseRequest::pair(sim.source, sim.listener, sim.options())
+    };
     let Some(out) = &args.out else {
         let answer = client.impulse_responses(scene_id, &request)?;
         let response = answer
@@ -30,6 +33,7 @@ pub fn run(client: &Client, scene_id: &str, args: &IrArgs) -> Result<(), Box<dyn
         sources: Some(request.sources),
         listeners: Some(request.listeners),
         options: Some(request.options),
+        lod_error_m: Some(request.lod_error_m),
         ..Default::default()
     })?;
     let (answer, samples) = stream.answer_to(0)?;

@@ -60,6 +60,7 @@ pub fn run(client: &Client, args: &StreamArgs) -> Result<(), Box<dyn Error>> {
             sources: Some(vec![sim.source.into()]),
             listeners: Some(vec![sim.listener.lerp(to, t).into()]),
             options: Some(options.clone()),
+            lod_error_m: Some(sim.lod_error),
             ..Default::default()
         };
         let sent = Instant::now();
