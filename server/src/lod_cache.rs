@@ -95,13 +95,7 @@ mod tests {
         assert_eq!(first.lod_error_m(), 0.5);
         assert!(Arc::ptr_eq(&first, &simplified(&server, "box", 0.5)));
         assert!(!Arc::ptr_eq(&first, &simplified(&server, "box", 0.25)));
-        let (status, _, _) = server
-            .send(patch_json(
-                "/v1/scenes/box/objects/panel",
-                r#"{"translation": [1, 0, 0]}"#,
-            ))
-            .await;
-        assert!(status.is_success());
+        server.translate("box", "panel", [1.0, 0.0, 0.0]).await;
         let moved = simplified(&server, "box", 0.5);
         assert!(!Arc::ptr_eq(&first, &moved));
         let panel = |s: &AcousticScene| s.bvh().instances()[1].to_world().translation;

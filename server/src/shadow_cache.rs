@@ -71,13 +71,7 @@ mod tests {
         let first = shadows_of(&server, "box");
         assert!(Arc::ptr_eq(&first, &shadows_of(&server, "box")));
         // An edit moves the revision: the panel's shadow data is stale.
-        let (status, _, _) = server
-            .send(patch_json(
-                "/v1/scenes/box/objects/panel",
-                r#"{"translation": [1, 0, 0]}"#,
-            ))
-            .await;
-        assert!(status.is_success());
+        server.translate("box", "panel", [1.0, 0.0, 0.0]).await;
         let moved = shadows_of(&server, "box");
         assert!(!Arc::ptr_eq(&first, &moved));
         assert!(Arc::ptr_eq(&moved, &shadows_of(&server, "box")));

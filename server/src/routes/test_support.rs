@@ -99,6 +99,17 @@ impl TestServer {
     }
 }
 
+impl TestServer {
+    /// Moves object `object` of scene `id` by `translation`, which must
+    /// succeed.
+    pub async fn translate(&self, id: &str, object: &str, translation: [f32; 3]) {
+        let uri = format!("/v1/scenes/{id}/objects/{object}");
+        let body = serde_json::json!({ "translation": translation }).to_string();
+        let (status, _, answer) = self.send(patch_json(&uri, &body)).await;
+        assert!(status.is_success(), "{answer}");
+    }
+}
+
 impl Drop for TestServer {
     fn drop(&mut self) {
         if !self.dir.as_os_str().is_empty() {
