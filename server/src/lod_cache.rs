@@ -6,14 +6,19 @@
 //! same one at every update.
 //!
 //! Keyed by the acoustic scene's state (process-unique, new with every
-//! edit, so an edited or re-uploaded scene is simplified again, never
-//! served stale) and the bound's bits. At most [`KEEP`] are kept, the
-//! least recently used dropped first, and only of scenes of at most
+//! edit, so an edited or re-uploaded scene is never served stale) and the
+//! bound's bits. After rigid moves and material edits, which leave every
+//! mesh as it was, the kept simplification of the scene's earlier state is
+//! moved and given the materials instead of made again: simplification
+//! works in each object's own frame. At most [`KEEP`] are kept, the least
+//! recently used dropped first, and only of scenes of at most
 //! [`KEEP_MAX_TRIANGLES`]: the memory held stays bounded.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use frusta_engine::acoustics::AcousticScene;
+use frusta_engine::scene::Scene;
 
 use crate::error::ApiError;
 use crate::registry::LiveScene;
@@ -24,21 +29,35 @@ pub const KEEP: usize = 4;
 
 /// A simplified scene and what it was made from.
 struct Kept {
+    id: String,
     state: u64,
     bound: u32,
+    /// The scene it stands for: meshes, transforms and materials.
+    source: Scene,
     scene: Arc<AcousticScene>,
 }
 
 #[derive(Default)]
-pub struct LodCache(Mutex<Vec<Kept>>);
+pub struct LodCache {
+    kept: Mutex<Vec<Kept>>,
+    /// Simplifications made (not taken or moved from a kept one).
+    made: AtomicU64,
+}
 
 impl LodCache {
-    /// `live`'s acoustic scene simplified within `bound` m (read under its
-    /// entry's lock): the kept one if there is one of this state and
-    /// bound, else made (outside the cache's lock) and kept.
-    pub fn get(&self, live: &LiveScene, bound: f32) -> Result<Arc<AcousticScene>, ApiError> {
+    /// Scene `id`'s acoustic scene simplified within `bound` m, from
+    /// `live` (read under its entry's lock): the kept one if there is one
+    /// of this state and bound, else one moved from the kept one of an
+    /// earlier state with the same meshes, else made (outside the cache's
+    /// lock); kept in either case.
+    pub fn get(
+        &self,
+        id: &str,
+        live: &LiveScene,
+        bound: f32,
+    ) -> Result<Arc<AcousticScene>, ApiError> {
         let key = (live.acoustic.state(), bound.to_bits());
-        {
+        let earlier = {
             let mut kept = self.lock();
             if let Some(i) = kept.iter().position(|k| (k.state, k.bound) == key) {
                 let hit = kept.remove(i);
@@ -46,26 +65,69 @@ impl LodCache {
                 kept.push(hit);
                 return Ok(scene);
             }
-        }
-        let scene =
-            Arc::new(AcousticScene::simplified(&live.scene, bound).map_err(ApiError::from_engine)?);
+            let same_meshes = |k: &Kept| {
+                k.id == id
+                    && k.bound == key.1
+                    && k.source.objects.len() == live.scene.objects.len()
+                    && k.source
+                        .objects
+                        .iter()
+                        .zip(&live.scene.objects)
+                        .all(|(a, b)| a.mesh == b.mesh)
+            };
+            kept.iter().position(same_meshes).map(|i| kept.remove(i))
+        };
+        let scene = match earlier {
+            Some(k) => moved(&k, &live.scene)?,
+            None => {
+                self.made.fetch_add(1, Ordering::Relaxed);
+                AcousticScene::simplified(&live.scene, bound).map_err(ApiError::from_engine)?
+            }
+        };
+        let scene = Arc::new(scene);
         if live.scene.triangle_count() <= KEEP_MAX_TRIANGLES {
             let mut kept = self.lock();
             if kept.len() >= KEEP {
                 kept.remove(0);
             }
             kept.push(Kept {
+                id: id.to_owned(),
                 state: key.0,
                 bound: key.1,
+                source: live.scene.clone(),
                 scene: Arc::clone(&scene),
             });
         }
         Ok(scene)
     }
 
-    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Kept>> {
-        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    /// How many simplifications were made.
+    pub fn made(&self) -> u64 {
+        self.made.load(Ordering::Relaxed)
     }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Kept>> {
+        self.kept.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// `k`'s simplified scene with the transforms and materials of `now`,
+/// whose meshes are `k`'s.
+fn moved(k: &Kept, now: &Scene) -> Result<AcousticScene, ApiError> {
+    let mut scene = (*k.scene).clone();
+    for (i, (was, is)) in k.source.objects.iter().zip(&now.objects).enumerate() {
+        if was.transform != is.transform {
+            scene
+                .set_transform(i, is.transform)
+                .map_err(ApiError::from_engine)?;
+        }
+    }
+    if k.source.materials != now.materials {
+        scene
+            .set_materials(now.materials.clone())
+            .map_err(ApiError::from_engine)?;
+    }
+    Ok(scene)
 }
 
 #[cfg(test)]
@@ -83,7 +145,7 @@ mod tests {
         server
             .state
             .lod_cache()
-            .get(&live, bound)
+            .get(id, &live, bound)
             .expect("simplified")
     }
 
@@ -95,11 +157,39 @@ mod tests {
         assert_eq!(first.lod_error_m(), 0.5);
         assert!(Arc::ptr_eq(&first, &simplified(&server, "box", 0.5)));
         assert!(!Arc::ptr_eq(&first, &simplified(&server, "box", 0.25)));
+        let made = server.state.lod_cache().made();
         server.translate("box", "panel", [1.0, 0.0, 0.0]).await;
         let moved = simplified(&server, "box", 0.5);
         assert!(!Arc::ptr_eq(&first, &moved));
         let panel = |s: &AcousticScene| s.bvh().instances()[1].to_world().translation;
         assert_eq!(panel(&moved), panel(&first) + glam::Vec3::X);
+        // Moved, not simplified again: the meshes are as they were.
+        assert_eq!(server.state.lod_cache().made(), made);
+        // So with new materials, which it takes.
+        let (status, _, answer) = server
+            .send(patch_json(
+                "/v1/scenes/box/materials",
+                r#"{"materials": {"walls": "heavy_curtain"}}"#,
+            ))
+            .await;
+        assert!(status.is_success(), "{answer}");
+        let curtained = simplified(&server, "box", 0.5);
+        assert_eq!(server.state.lod_cache().made(), made);
+        let live = server.state.registry().get("box").expect("the scene");
+        assert_eq!(curtained.materials(), live.read().acoustic.materials());
+        assert_ne!(curtained.materials(), moved.materials());
+        // New vertices are simplified again.
+        let (status, _, answer) = server
+            .send(patch_json(
+                "/v1/scenes/box/objects/panel",
+                r#"{"vertices": [[4, 1, 0.5], [4, 2, 0.5], [4, 2, 2.5], [4, 1, 2.5]]}"#,
+            ))
+            .await;
+        assert!(status.is_success(), "{answer}");
+        let reshaped = simplified(&server, "box", 0.5);
+        assert_eq!(server.state.lod_cache().made(), made + 1);
+        let top = |s: &AcousticScene| s.bvh().instances()[1].bvh().bounds().max.z;
+        assert_eq!(top(&reshaped), 2.5);
     }
 
     #[tokio::test]
