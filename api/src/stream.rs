@@ -30,6 +30,7 @@ pub struct StreamUpdate {
     pub options: Option<SimulationOptions>,
     /// Levels of detail, as the impulse-response route's `lod_error_m`.
     #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 0.0)]
     pub lod_error_m: Option<f32>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub objects: Option<Vec<ObjectMove>>,

@@ -8,11 +8,14 @@
 //! Keyed by the acoustic scene's state (process-unique, new with every
 //! edit, so an edited or re-uploaded scene is never served stale) and the
 //! bound's bits. After rigid moves and material edits, which leave every
-//! mesh as it was, the kept simplification of the scene's earlier state is
-//! moved and given the materials instead of made again: simplification
-//! works in each object's own frame. At most [`KEEP`] are kept, the least
-//! recently used dropped first, and only of scenes of at most
-//! [`KEEP_MAX_TRIANGLES`]: the memory held stays bounded.
+//! mesh (and name, and triangle's material) as it was, the kept
+//! simplification of the scene's earlier state is moved and given the
+//! materials instead of made again: simplification works in each object's
+//! own frame. Each distinct bound is a simplification of its own. At most
+//! [`KEEP`] are kept (each with a copy of the scene it stands for), the
+//! least recently used dropped first, and only of scenes of at most
+//! [`KEEP_MAX_TRIANGLES`]: the memory held stays bounded. A larger scene
+//! is simplified again at every request.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -65,20 +68,26 @@ impl LodCache {
                 kept.push(hit);
                 return Ok(scene);
             }
+            // Everything but transforms and material coefficients the
+            // same (a scene deleted and uploaded again under this id may
+            // still differ in names or per-triangle materials).
             let same_meshes = |k: &Kept| {
                 k.id == id
                     && k.bound == key.1
                     && k.source.objects.len() == live.scene.objects.len()
+                    && k.source.materials.len() <= live.scene.materials.len()
                     && k.source
                         .objects
                         .iter()
                         .zip(&live.scene.objects)
-                        .all(|(a, b)| a.mesh == b.mesh)
+                        .all(|(a, b)| {
+                            a.name == b.name && a.mesh == b.mesh && a.materials == b.materials
+                        })
             };
             kept.iter().position(same_meshes).map(|i| kept.remove(i))
         };
-        let scene = match earlier {
-            Some(k) => moved(&k, &live.scene)?,
+        let scene = match earlier.and_then(|k| moved(&k, &live.scene)) {
+            Some(scene) => scene,
             None => {
                 self.made.fetch_add(1, Ordering::Relaxed);
                 AcousticScene::simplified(&live.scene, bound).map_err(ApiError::from_engine)?
@@ -112,22 +121,18 @@ impl LodCache {
 }
 
 /// `k`'s simplified scene with the transforms and materials of `now`,
-/// whose meshes are `k`'s.
-fn moved(k: &Kept, now: &Scene) -> Result<AcousticScene, ApiError> {
+/// whose objects are `k`'s but for those; `None` if one is refused.
+fn moved(k: &Kept, now: &Scene) -> Option<AcousticScene> {
     let mut scene = (*k.scene).clone();
     for (i, (was, is)) in k.source.objects.iter().zip(&now.objects).enumerate() {
         if was.transform != is.transform {
-            scene
-                .set_transform(i, is.transform)
-                .map_err(ApiError::from_engine)?;
+            scene.set_transform(i, is.transform).ok()?;
         }
     }
     if k.source.materials != now.materials {
-        scene
-            .set_materials(now.materials.clone())
-            .map_err(ApiError::from_engine)?;
+        scene.set_materials(now.materials.clone()).ok()?;
     }
-    Ok(scene)
+    Some(scene)
 }
 
 #[cfg(test)]
@@ -190,6 +195,22 @@ mod tests {
         assert_eq!(server.state.lod_cache().made(), made + 1);
         let top = |s: &AcousticScene| s.bvh().instances()[1].bvh().bounds().max.z;
         assert_eq!(top(&reshaped), 2.5);
+    }
+
+    /// Deleted and uploaded again under the same id with the same meshes
+    /// but another name: simplified again, not moved from the kept one.
+    #[tokio::test]
+    async fn a_scene_uploaded_again_with_other_names_is_simplified_again() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        simplified(&server, "box", 0.5);
+        let made = server.state.lod_cache().made();
+        server.send(delete("/v1/scenes/box")).await;
+        let renamed = BOX_DOC.replace("panel", "screen");
+        server.send(post_json("/v1/scenes?id=box", &renamed)).await;
+        let again = simplified(&server, "box", 0.5);
+        assert_eq!(server.state.lod_cache().made(), made + 1);
+        assert_eq!(again.object_names()[1], "screen");
     }
 
     #[tokio::test]

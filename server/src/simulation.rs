@@ -172,8 +172,8 @@ impl Drop for CancelOnDrop {
 
 /// Simulates under the scene's read lock, within the compute limit, on the
 /// scene simplified within the request's `lod_error_m` where it has one
-/// (made or taken from `lods`; making it is not bounded by the compute
-/// limit, and is done once per scene state and bound). With a
+/// (taken from `lods`, or moved or made there; making it is not bounded by
+/// the compute limit). With a
 /// `cache` (a stream), the frusta traced from unchanged sources are kept
 /// for moving listeners; the engine drops them when the geometry,
 /// materials or options change. Without one (a one-off request), listeners

@@ -40,6 +40,10 @@ impl From<Vec3> for Point {
     }
 }
 
+fn is_exact(lod_error_m: &f32) -> bool {
+    *lod_error_m == 0.0
+}
+
 impl ImpulseResponseRequest {
     /// One source and one listener.
     pub fn pair(source: Vec3, listener: Vec3, options: SimulationOptions) -> Self {
@@ -61,8 +65,9 @@ pub struct ImpulseResponseRequest {
     pub sources: Vec<Point>,
     pub listeners: Vec<Point>,
     /// Levels of detail: the scene simplified so that every corner lies
-    /// within this many metres of the geometry traced (0: exact).
-    #[serde(default)]
+    /// within this many metres of the geometry traced (0: exact; not sent,
+    /// so servers without levels of detail take the request).
+    #[serde(default, skip_serializing_if = "is_exact")]
     pub lod_error_m: f32,
     #[serde(flatten)]
     pub options: SimulationOptions,
@@ -298,7 +303,7 @@ impl PartialSchema for ImpulseResponseRequest {
                 ObjectBuilder::new()
                     .schema_type(Type::Number)
                     .description(Some(
-                        "Levels of detail: each object is simplified, every part of its tree whose surface lies within this many metres of a plane becoming one polygon, and the request is answered on that (0: exact geometry). Features smaller than the bound cost no frusta; answers report the bound in stats.lod_error_m and name the original triangle each polygon stands for. A scene's simplification is made once per bound and kept until it changes",
+                        "Levels of detail: each object is simplified, every part of its tree whose surface lies within this many metres of a plane becoming one polygon, and the request is answered on that (0: exact geometry). Features smaller than the bound cost no frusta; answers report the bound in stats.lod_error_m and name the original triangle each polygon stands for. A scene's simplification at a bound is kept for the next request (up to a few per server) and moved with its objects",
                     ))
                     .default(Some(0.0.into()))
                     .minimum(Some(0.0)),

@@ -93,6 +93,12 @@ impl AcousticScene {
     ///
     /// [`SimulationStats::lod_error_m`]: super::SimulationStats::lod_error_m
     pub fn simplified(scene: &Scene, max_error_m: f32) -> Result<Self> {
+        if !(max_error_m.is_finite() && max_error_m >= 0.0) {
+            return Err(Error::InvalidOption {
+                field: "lod_error_m".into(),
+                reason: format!("must be a finite distance of at least 0, not {max_error_m}"),
+            });
+        }
         if max_error_m == 0.0 {
             return Ok(Self::new(scene));
         }

@@ -33,7 +33,7 @@ pub fn run(client: &Client, scene_id: &str, args: &IrArgs) -> Result<(), Box<dyn
         sources: Some(request.sources),
         listeners: Some(request.listeners),
         options: Some(request.options),
-        lod_error_m: Some(request.lod_error_m),
+        lod_error_m: (request.lod_error_m > 0.0).then_some(request.lod_error_m),
         ..Default::default()
     })?;
     let (answer, samples) = stream.answer_to(0)?;

@@ -60,7 +60,7 @@ pub fn run(client: &Client, args: &StreamArgs) -> Result<(), Box<dyn Error>> {
             sources: Some(vec![sim.source.into()]),
             listeners: Some(vec![sim.listener.lerp(to, t).into()]),
             options: Some(options.clone()),
-            lod_error_m: Some(sim.lod_error),
+            lod_error_m: (sim.lod_error > 0.0).then_some(sim.lod_error),
             ..Default::default()
         };
         let sent = Instant::now();
