@@ -236,7 +236,26 @@ fn stream_with_a_moving_listener() {
         other => panic!("expected a problem, got {other:?}"),
     }
     stream.send(&update(99, [6.0, 2.0, 1.5])).expect("send");
-    assert_eq!(read_answer(&mut stream).0.seq, Some(99));
+    let (exact, _) = read_answer(&mut stream);
+    assert_eq!(exact.seq, Some(99));
+    assert_eq!(exact.pair.stats.lod_error_m, 0.0);
+    // Levels of detail: the shoebox's walls are flat and stay as they are,
+    // so the paths are the exact ones, traced again on the simplified
+    // scene; the stream keeps the bound, and the frusta while only the
+    // listener moves (the server keeps the simplification).
+    let lod = StreamUpdate {
+        lod_error_m: Some(0.5),
+        ..update(100, [6.0, 2.0, 1.5])
+    };
+    stream.send(&lod).expect("send");
+    let (coarse, _) = read_answer(&mut stream);
+    assert_eq!(coarse.pair.stats.lod_error_m, 0.5);
+    assert_eq!(coarse.pair.paths, exact.pair.paths);
+    assert!(!coarse.pair.stats.beams_reused);
+    stream.send(&update(101, [6.2, 2.0, 1.5])).expect("send");
+    let (moved, _) = read_answer(&mut stream);
+    assert_eq!(moved.pair.stats.lod_error_m, 0.5);
+    assert!(moved.pair.stats.beams_reused);
     // The client closes; the server answers with its Close (RFC 6455
     // 5.5.1) rather than dropping the connection.
     stream
