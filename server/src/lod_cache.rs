@@ -8,20 +8,21 @@
 //! Keyed by the acoustic scene's state (process-unique, new with every
 //! edit, so an edited or re-uploaded scene is never served stale) and the
 //! bound's bits. After rigid moves and material edits, which leave every
-//! mesh (and name, and triangle's material) as it was, the kept
-//! simplification of the scene's earlier state is moved and given the
-//! materials instead of made again: simplification works in each object's
-//! own frame. Each distinct bound is a simplification of its own. At most
-//! [`KEEP`] are kept (each with a copy of the scene it stands for), the
-//! least recently used dropped first, and only of scenes of at most
-//! [`KEEP_MAX_TRIANGLES`]: the memory held stays bounded. A larger scene
-//! is simplified again at every request.
+//! mesh of the upload as it was (its versions, `LiveScene::mesh_versions`,
+//! say so without comparing meshes), the kept simplification of the
+//! scene's earlier state is moved and given the materials instead of made
+//! again: simplification works in each object's own frame. Each distinct
+//! bound is a simplification of its own. At most [`KEEP`] are kept, of at
+//! most [`KEEP_MAX_TRIANGLES`] simplified triangles together, the least
+//! recently used dropped first: the memory held stays bounded. A
+//! simplification larger than that is made again at every request.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use frusta_engine::acoustics::AcousticScene;
-use frusta_engine::scene::Scene;
+use frusta_engine::geometry::RigidTransform;
+use frusta_engine::scene::{Material, Scene};
 
 use crate::error::ApiError;
 use crate::registry::LiveScene;
@@ -35,8 +36,12 @@ struct Kept {
     id: String,
     state: u64,
     bound: u32,
-    /// The scene it stands for: meshes, transforms and materials.
-    source: Scene,
+    /// The scene it stands for: its objects' mesh versions and
+    /// transforms, and its materials.
+    mesh_versions: Vec<u64>,
+    transforms: Vec<RigidTransform>,
+    materials: Vec<Material>,
+    triangles: usize,
     scene: Arc<AcousticScene>,
 }
 
@@ -52,7 +57,7 @@ impl LodCache {
     /// `live` (read under its entry's lock): the kept one if there is one
     /// of this state and bound, else one moved from the kept one of an
     /// earlier state with the same meshes, else made (outside the cache's
-    /// lock); kept in either case.
+    /// lock); kept in either case if it fits.
     pub fn get(
         &self,
         id: &str,
@@ -68,22 +73,8 @@ impl LodCache {
                 kept.push(hit);
                 return Ok(scene);
             }
-            // Everything but transforms and material coefficients the
-            // same (a scene deleted and uploaded again under this id may
-            // still differ in names or per-triangle materials).
-            let same_meshes = |k: &Kept| {
-                k.id == id
-                    && k.bound == key.1
-                    && k.source.objects.len() == live.scene.objects.len()
-                    && k.source.materials.len() <= live.scene.materials.len()
-                    && k.source
-                        .objects
-                        .iter()
-                        .zip(&live.scene.objects)
-                        .all(|(a, b)| {
-                            a.name == b.name && a.mesh == b.mesh && a.materials == b.materials
-                        })
-            };
+            let same_meshes =
+                |k: &Kept| k.id == id && k.bound == key.1 && k.mesh_versions == live.mesh_versions;
             kept.iter().position(same_meshes).map(|i| kept.remove(i))
         };
         let scene = match earlier.and_then(|k| moved(&k, &live.scene)) {
@@ -94,16 +85,27 @@ impl LodCache {
             }
         };
         let scene = Arc::new(scene);
-        if live.scene.triangle_count() <= KEEP_MAX_TRIANGLES {
+        let triangles: usize = scene
+            .bvh()
+            .instances()
+            .iter()
+            .map(|i| i.bvh().triangle_count())
+            .sum();
+        if triangles <= KEEP_MAX_TRIANGLES {
             let mut kept = self.lock();
-            if kept.len() >= KEEP {
+            while kept.len() >= KEEP
+                || kept.iter().map(|k| k.triangles).sum::<usize>() + triangles > KEEP_MAX_TRIANGLES
+            {
                 kept.remove(0);
             }
             kept.push(Kept {
                 id: id.to_owned(),
                 state: key.0,
                 bound: key.1,
-                source: live.scene.clone(),
+                mesh_versions: live.mesh_versions.clone(),
+                transforms: live.scene.objects.iter().map(|o| o.transform).collect(),
+                materials: live.scene.materials.clone(),
+                triangles,
                 scene: Arc::clone(&scene),
             });
         }
@@ -121,15 +123,15 @@ impl LodCache {
 }
 
 /// `k`'s simplified scene with the transforms and materials of `now`,
-/// whose objects are `k`'s but for those; `None` if one is refused.
+/// whose meshes are `k`'s; `None` if one is refused.
 fn moved(k: &Kept, now: &Scene) -> Option<AcousticScene> {
     let mut scene = (*k.scene).clone();
-    for (i, (was, is)) in k.source.objects.iter().zip(&now.objects).enumerate() {
-        if was.transform != is.transform {
+    for (i, (was, is)) in k.transforms.iter().zip(&now.objects).enumerate() {
+        if *was != is.transform {
             scene.set_transform(i, is.transform).ok()?;
         }
     }
-    if k.source.materials != now.materials {
+    if k.materials != now.materials {
         scene.set_materials(now.materials.clone()).ok()?;
     }
     Some(scene)

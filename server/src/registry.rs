@@ -3,6 +3,7 @@
 //! so that what is stored and what is served never diverge.
 
 use std::collections::{BTreeMap, HashMap};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
@@ -22,11 +23,21 @@ use crate::store::{ObjectOverlay, SceneMeta, Store, StoredScene};
 pub struct LiveScene {
     pub scene: Scene,
     pub acoustic: AcousticScene,
+    /// Per object, its mesh's version: process-unique, new with the upload
+    /// and with every vertex edit, so a cache tells an unchanged mesh (of
+    /// this upload) without comparing it.
+    pub mesh_versions: Vec<u64>,
     pub build_ms: f64,
     /// Set by [`Registry::delete`] under the write lock: an edit that
     /// looked the scene up before the delete finds it here and fails,
     /// instead of writing the scene back into the store.
     deleted: bool,
+}
+
+/// A new mesh version (see [`LiveScene::mesh_versions`]).
+fn next_mesh_version() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 pub struct SceneEntry {
@@ -289,6 +300,7 @@ impl Registry {
             meta,
             object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
             live: RwLock::new(LiveScene {
+                mesh_versions: scene.objects.iter().map(|_| next_mesh_version()).collect(),
                 scene,
                 acoustic,
                 build_ms,
@@ -409,6 +421,7 @@ impl Registry {
                         .map_err(ApiError::from_engine)?,
                 );
                 live.scene.objects[object].mesh = m;
+                live.mesh_versions[object] = next_mesh_version();
             }
             let revision = entry.announce(&live);
             reports.push(EditReport {
