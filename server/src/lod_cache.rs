@@ -85,12 +85,7 @@ impl LodCache {
             }
         };
         let scene = Arc::new(scene);
-        let triangles: usize = scene
-            .bvh()
-            .instances()
-            .iter()
-            .map(|i| i.bvh().triangle_count())
-            .sum();
+        let triangles = scene.bvh().triangle_count();
         if triangles <= KEEP_MAX_TRIANGLES {
             let mut kept = self.lock();
             while kept.len() >= KEEP

@@ -34,12 +34,7 @@ impl ShadowCache {
             return Arc::clone(kept);
         }
         let shadows = Arc::new(ShadowScene::new(scene.bvh()));
-        let triangles: usize = scene
-            .bvh()
-            .instances()
-            .iter()
-            .map(|i| i.bvh().triangle_count())
-            .sum();
+        let triangles = scene.bvh().triangle_count();
         if triangles <= KEEP_MAX_TRIANGLES {
             *self.lock() = Some((state, Arc::clone(&shadows)));
         }

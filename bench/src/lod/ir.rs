@@ -59,12 +59,7 @@ pub fn runs(
     for &bound in bounds {
         let start = Instant::now();
         let simple = AcousticScene::simplified(scene, bound).map_err(|e| e.to_string())?;
-        let triangles = simple
-            .bvh()
-            .instances()
-            .iter()
-            .map(|i| i.bvh().triangle_count())
-            .sum();
+        let triangles = simple.bvh().triangle_count();
         let polygons = simple.lod().map_or(0, |l| l.polygons);
         geometries.push(Geometry {
             bound,

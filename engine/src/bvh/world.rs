@@ -169,6 +169,14 @@ impl SceneBvh {
         &self.instances
     }
 
+    /// Triangles over every object.
+    pub fn triangle_count(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| i.bvh().triangle_count())
+            .sum()
+    }
+
     /// Walks the top level with `test` (in world space) and calls
     /// `visit(object, instance, bound)` for every object whose world box it
     /// reaches, nearest key first; `visit` walks the object's tree in its
