@@ -8,6 +8,8 @@
 //! events (reflection or transmission, material), image source, length,
 //! delay and gain in every band to 1e-6, no false and no missing path.
 
+mod common;
+
 use std::collections::HashMap;
 
 use frusta_engine::acoustics::brute_force::{BruteForce, ReferencePath};
@@ -18,6 +20,8 @@ use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::generate::BoxRoom;
 use frusta_engine::scene::{Material, MaterialId, Scene, SceneObject, BAND_COUNT};
 use glam::{DVec3, Quat, Vec3};
+
+use common::box_images;
 
 /// Relative tolerance of lengths, delays and gains.
 const REL: f64 = 1e-6;
@@ -439,41 +443,6 @@ fn sampled_paths_are_all_real_and_their_recall_is_reported() {
         );
         assert_eq!(false_paths, 0, "{}", case.name);
     }
-}
-
-/// The closed form of a box `[0, size]`: per axis `n` reflections put the
-/// image at `2qL + x` (|q| reflections off each wall, n = 2q) or `2qL - x`
-/// (|q| off the wall at L and |q - 1| off the wall at 0, n = 2q - 1), and
-/// the gain is the product of the walls' factors over the distance.
-/// Returns (image, reflections per wall `2 axis + (wall at L)`), by
-/// distance to `l`.
-fn box_images(size: DVec3, s: DVec3, l: DVec3, order: i32) -> Vec<(DVec3, [i32; 6])> {
-    let mut out = Vec::new();
-    for i in -order..=order {
-        for j in -order..=order {
-            for k in -order..=order {
-                if i.abs() + j.abs() + k.abs() > order {
-                    continue;
-                }
-                let mut image = DVec3::ZERO;
-                let mut counts = [0; 6];
-                for (axis, n) in [i, j, k].into_iter().enumerate() {
-                    let q = (n + 1).div_euclid(2);
-                    if n % 2 == 0 {
-                        image[axis] = 2.0 * f64::from(q) * size[axis] + s[axis];
-                        counts[2 * axis] = q.abs();
-                    } else {
-                        image[axis] = 2.0 * f64::from(q) * size[axis] - s[axis];
-                        counts[2 * axis] = (q - 1).abs();
-                    }
-                    counts[2 * axis + 1] = q.abs();
-                }
-                out.push((image, counts));
-            }
-        }
-    }
-    out.sort_by(|a, b| a.0.distance(l).total_cmp(&b.0.distance(l)));
-    out
 }
 
 /// The wall of the box a triangle lies on, `2 axis + (at max)`.

@@ -6,12 +6,16 @@
 //! nodes up to about a metre across, each one polygon within a centimetre
 //! of the floor).
 
+mod common;
+
 use frusta_engine::acoustics::{
     simulate, AcousticScene, CellAssignment, Response, SimulationOptions, Tail,
 };
 use frusta_engine::scene::generate::BoxRoom;
 use frusta_engine::scene::{Material, RawMesh, Scene};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
+
+use common::box_images;
 
 const ROOM: [f64; 3] = [10.0, 6.0, 3.0];
 const SOURCE: [f64; 3] = [2.0, 3.0, 1.5];
@@ -43,30 +47,15 @@ fn cluttered_box() -> Scene {
     Scene::single_object("room", mesh, Material::uniform("walls", 0.1).unwrap()).unwrap()
 }
 
-/// The flat box's image sources up to `order` reflections, as (distance,
-/// whether the path reflects off the floor): index `m` on an axis of
-/// length `L` lies at `m L + (x if m is even else L − x)` after `|m|`
-/// reflections, and along z the floor is met by every odd negative index
-/// and by every index of magnitude two or more.
-fn images(order: i64) -> Vec<(f64, bool)> {
-    let coordinate = |m: i64, axis: usize| {
-        let (l, x) = (ROOM[axis], SOURCE[axis]);
-        m as f64 * l + if m.rem_euclid(2) == 0 { x } else { l - x }
-    };
-    let mut out = Vec::new();
-    for mx in -order..=order {
-        for my in -order..=order {
-            for mz in -order..=order {
-                if mx.abs() + my.abs() + mz.abs() > order {
-                    continue;
-                }
-                let d = [coordinate(mx, 0), coordinate(my, 1), coordinate(mz, 2)];
-                let squared: f64 = (0..3).map(|a| (d[a] - LISTENER[a]).powi(2)).sum();
-                out.push((squared.sqrt(), mz == -1 || mz.abs() >= 2));
-            }
-        }
-    }
-    out
+/// The flat box's image sources up to `order` reflections (the closed
+/// form, [`box_images`]), as (distance, whether the path reflects off the
+/// floor).
+fn images(order: i32) -> Vec<(f64, bool)> {
+    let (s, l) = (DVec3::from_array(SOURCE), DVec3::from_array(LISTENER));
+    box_images(DVec3::from_array(ROOM), s, l, order)
+        .into_iter()
+        .map(|(image, walls)| (image.distance(l), walls[4] > 0))
+        .collect()
 }
 
 /// Exact paths to order 2 at 1 kHz, nothing else.
@@ -157,6 +146,27 @@ fn bound_zero_is_exact_and_bad_bounds_are_refused() {
         let e = AcousticScene::simplified(&scene, bad).unwrap_err();
         assert!(e.to_string().contains("lod_error_m"), "{bad}: {e}");
     }
+}
+
+/// A bound beyond the whole scene still answers, on one rectangle (the
+/// room's plane of least spread); a simplified scene refuses new vertices
+/// and keeps what it has.
+#[test]
+fn huge_bounds_answer_and_new_vertices_are_refused() {
+    let scene = cluttered_box();
+    let flat = AcousticScene::simplified(&scene, 1e30).unwrap();
+    let response = respond(&flat);
+    assert_eq!(response.stats.lod_error_m, 1e30);
+    assert_eq!(flat.bvh().triangle_count(), 2);
+    let mut lod = AcousticScene::simplified(&scene, BOUND_M).unwrap();
+    let before = respond(&lod).paths;
+    let object = &scene.objects[0];
+    let e = lod
+        .update_mesh(0, &object.mesh, &object.materials, 0.5)
+        .unwrap_err();
+    assert!(e.to_string().contains("simplified"), "{e}");
+    assert_eq!(lod.revision(), 0);
+    assert_eq!(respond(&lod).paths, before);
 }
 
 /// The energy of a response's paths, dB.

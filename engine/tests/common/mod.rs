@@ -6,7 +6,7 @@ pub mod shadow_scenes;
 use frusta_engine::bvh::{BuildMethod, BuildOptions};
 use frusta_engine::geometry::{RigidTransform, TriangleMesh};
 use frusta_engine::scene::SceneObject;
-use glam::{Quat, Vec3};
+use glam::{DVec3, Quat, Vec3};
 
 /// `../shared/data/meshes` (or `$FRUSTA_SHARED_DIR/data/meshes`); `None`,
 /// with a message, where it is absent.
@@ -125,4 +125,39 @@ pub fn grid_triangles(n: usize, m: usize) -> Vec<[u32; 3]> {
         }
     }
     triangles
+}
+
+/// The closed form of a box `[0, size]`: per axis `n` reflections put the
+/// image at `2qL + x` (|q| reflections off each wall, n = 2q) or `2qL - x`
+/// (|q| off the wall at L and |q - 1| off the wall at 0, n = 2q - 1), and
+/// the gain is the product of the walls' factors over the distance.
+/// Returns (image, reflections per wall `2 axis + (wall at L)`), by
+/// distance to `l`.
+pub fn box_images(size: DVec3, s: DVec3, l: DVec3, order: i32) -> Vec<(DVec3, [i32; 6])> {
+    let mut out = Vec::new();
+    for i in -order..=order {
+        for j in -order..=order {
+            for k in -order..=order {
+                if i.abs() + j.abs() + k.abs() > order {
+                    continue;
+                }
+                let mut image = DVec3::ZERO;
+                let mut counts = [0; 6];
+                for (axis, n) in [i, j, k].into_iter().enumerate() {
+                    let q = (n + 1).div_euclid(2);
+                    if n % 2 == 0 {
+                        image[axis] = 2.0 * f64::from(q) * size[axis] + s[axis];
+                        counts[2 * axis] = q.abs();
+                    } else {
+                        image[axis] = 2.0 * f64::from(q) * size[axis] - s[axis];
+                        counts[2 * axis] = (q - 1).abs();
+                    }
+                    counts[2 * axis + 1] = q.abs();
+                }
+                out.push((image, counts));
+            }
+        }
+    }
+    out.sort_by(|a, b| a.0.distance(l).total_cmp(&b.0.distance(l)));
+    out
 }
