@@ -45,14 +45,29 @@ struct Kept {
     scene: Arc<AcousticScene>,
 }
 
-#[derive(Default)]
 pub struct LodCache {
     kept: Mutex<Vec<Kept>>,
     /// Simplifications made (not taken or moved from a kept one).
     made: AtomicU64,
+    /// Simplified triangles kept at most, together.
+    budget: usize,
+}
+
+impl Default for LodCache {
+    fn default() -> Self {
+        Self::with_budget(KEEP_MAX_TRIANGLES)
+    }
 }
 
 impl LodCache {
+    fn with_budget(budget: usize) -> Self {
+        Self {
+            kept: Mutex::default(),
+            made: AtomicU64::new(0),
+            budget,
+        }
+    }
+
     /// Scene `id`'s acoustic scene simplified within `bound` m, from
     /// `live` (read under its entry's lock): the kept one if there is one
     /// of this state and bound, else one moved from the kept one of an
@@ -86,10 +101,10 @@ impl LodCache {
         };
         let scene = Arc::new(scene);
         let triangles = scene.bvh().triangle_count();
-        if triangles <= KEEP_MAX_TRIANGLES {
+        if triangles <= self.budget {
             let mut kept = self.lock();
             while kept.len() >= KEEP
-                || kept.iter().map(|k| k.triangles).sum::<usize>() + triangles > KEEP_MAX_TRIANGLES
+                || kept.iter().map(|k| k.triangles).sum::<usize>() + triangles > self.budget
             {
                 kept.remove(0);
             }
@@ -208,6 +223,32 @@ mod tests {
         let again = simplified(&server, "box", 0.5);
         assert_eq!(server.state.lod_cache().made(), made + 1);
         assert_eq!(again.object_names()[1], "screen");
+    }
+
+    /// The simplified triangles kept together stay within the budget, the
+    /// least recently used dropped to make room; one larger than the whole
+    /// budget is made at every request.
+    #[tokio::test]
+    async fn the_kept_triangles_stay_within_the_budget() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let entry = server.state.registry().get("box").expect("the scene");
+        let live = entry.read();
+        // The box's 14 triangles are flat and stay: 14 a simplification.
+        let cache = super::LodCache::with_budget(30);
+        let get = |bound: f32| cache.get("box", &live, bound).expect("simplified");
+        for bound in [0.5, 0.25, 0.75] {
+            get(bound);
+        }
+        assert_eq!(cache.made(), 3);
+        get(0.75);
+        assert_eq!(cache.made(), 3, "kept");
+        get(0.5);
+        assert_eq!(cache.made(), 4, "dropped for 0.75");
+        let small = super::LodCache::with_budget(10);
+        small.get("box", &live, 0.5).expect("simplified");
+        small.get("box", &live, 0.5).expect("simplified");
+        assert_eq!(small.made(), 2);
     }
 
     #[tokio::test]
