@@ -191,6 +191,19 @@ fn ir_on_the_server_matches_ir_offline() {
     }
     assert_eq!(remote["sample_rate"], 16000);
 
+    // With --lod-error both say so; the shoebox's walls are flat and stay
+    // as they are, so the paths are the same.
+    let lod = [&flags[..], &["--lod-error", "0.5"]].concat();
+    let offline_lod =
+        stdout_json(&server.frusta(&[&["ir", "--scene", SHOEBOX], &lod[..]].concat()));
+    let remote_lod =
+        stdout_json(&server.frusta(&[&["ir", "--scene-id", "shoebox"], &lod[..]].concat()));
+    for doc in [&offline_lod, &remote_lod] {
+        assert_eq!(doc["stats"]["lod_error_m"], 0.5, "{doc}");
+        assert_eq!(paths(doc).len(), 63);
+    }
+    assert_eq!(offline["stats"]["lod_error_m"], 0.0);
+
     // The text report is the offline one, and --out writes the server's WAV.
     let wav = server.dir.0.join("ir.wav");
     let text = stdout(&server.frusta(&[
