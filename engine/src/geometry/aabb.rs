@@ -182,13 +182,9 @@ mod tests {
     /// shifts up to 1e4.
     #[test]
     fn moved_boxes_hold_their_moved_contents_and_stay_tight() {
-        let mut state = 7u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-        };
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+        let mut next = || rng.random_range(-1.0f32..1.0);
         let mut outside = 0;
         for case in 0..4000 {
             let scale = [1e-3, 1.0, 1e2, 1e4][case % 4];
