@@ -1,9 +1,9 @@
 //! Simplified scenes for impulse responses with levels of detail
 //! (`lod_error_m`), kept for the next request at the same bound: a
-//! simplification fits planes to every node of every object's tree and
-//! builds the result (about 0.25-0.36 s in hall-200k, 33 s for 20 million
-//! triangles: `bench/results/lod.txt`, setup), and a stream asks for the
-//! same one at every update.
+//! simplification cuts the trees the scene already holds (their planes
+//! fitted once per object, on first use) and builds the result, which
+//! costs up to a build of the simplified geometry (`bench/results/lod.txt`,
+//! setup), and a stream asks for the same one at every update.
 //!
 //! Keyed by the acoustic scene's state (process-unique, new with every
 //! edit, so an edited or re-uploaded scene is never served stale) and the
@@ -96,7 +96,9 @@ impl LodCache {
             Some(scene) => scene,
             None => {
                 self.made.fetch_add(1, Ordering::Relaxed);
-                AcousticScene::simplified(&live.scene, bound).map_err(ApiError::from_engine)?
+                live.acoustic
+                    .simplified_from(&live.scene, bound)
+                    .map_err(ApiError::from_engine)?
             }
         };
         let scene = Arc::new(scene);

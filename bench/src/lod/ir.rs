@@ -58,7 +58,10 @@ pub fn runs(
     }];
     for &bound in bounds {
         let start = Instant::now();
-        let simple = AcousticScene::simplified(scene, bound).map_err(|e| e.to_string())?;
+        let simple = geometries[0]
+            .scene
+            .simplified_from(scene, bound)
+            .map_err(|e| e.to_string())?;
         let triangles = simple.bvh().triangle_count();
         let polygons = simple.lod().map_or(0, |l| l.polygons);
         geometries.push(Geometry {

@@ -10,7 +10,7 @@ use super::diffraction::{EdgeScene, Edges};
 use super::path::{dedup_paths, validate, Event, ValidPath};
 use super::surfaces::Surfaces;
 use super::tracer::{trace, trace_beams, TraceInput, TraceOptions, TraceStats};
-use crate::bvh::lod::simplify_scene;
+use crate::bvh::lod::{check_bound, simplify_scene, simplify_scene_on, SimplifiedScene};
 use crate::bvh::{BuildOptions, UpdateReport};
 use crate::deadline::Deadline;
 use crate::geometry::{RigidTransform, TriangleMesh, MAX_COORDINATE};
@@ -93,23 +93,44 @@ impl AcousticScene {
     ///
     /// [`SimulationStats::lod_error_m`]: super::SimulationStats::lod_error_m
     pub fn simplified(scene: &Scene, max_error_m: f32) -> Result<Self> {
-        if !(max_error_m.is_finite() && max_error_m >= 0.0) {
-            return Err(Error::InvalidOption {
-                field: "lod_error_m".into(),
-                reason: format!("must be a finite distance of at least 0, not {max_error_m}"),
-            });
-        }
+        check_bound(max_error_m)?;
         if max_error_m == 0.0 {
             return Ok(Self::new(scene));
         }
         let simple = simplify_scene(scene, max_error_m)?;
+        Ok(Self::standing_for(simple, max_error_m))
+    }
+
+    /// [`Self::simplified`] for `scene`, the scene this one was built from
+    /// (as it has moved and changed since), cut on the trees this one
+    /// already holds: no tree of the exact scene is built again, and each
+    /// object's levels of detail are fitted once for every bound (see
+    /// [`simplify_scene_on`]). What a service holding the exact scene
+    /// does. Refused on a scene that is itself simplified.
+    pub fn simplified_from(&self, scene: &Scene, max_error_m: f32) -> Result<Self> {
+        check_bound(max_error_m)?;
+        if self.lod.is_some() {
+            return Err(Error::InvalidScene(
+                "a simplified scene is not simplified again".into(),
+            ));
+        }
+        if max_error_m == 0.0 {
+            return Ok(self.clone());
+        }
+        let simple = simplify_scene_on(scene, &self.bvh, max_error_m)?;
+        Ok(Self::standing_for(simple, max_error_m))
+    }
+
+    /// The acoustic scene of `simple`, standing for the scene it was
+    /// simplified from within `max_error_m`.
+    fn standing_for(simple: SimplifiedScene, max_error_m: f32) -> Self {
         let mut out = Self::new(&simple.scene);
         out.lod = Some(Lod {
             max_error_m,
             polygons: simple.polygons,
             origins: simple.origins,
         });
-        Ok(out)
+        out
     }
 
     /// How this scene stands for another, if it was simplified.

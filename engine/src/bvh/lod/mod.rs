@@ -50,7 +50,8 @@ use super::{MeshBvh, MeshHit};
 use crate::geometry::{Aabb, Ray};
 use crate::{Error, Result};
 
-pub use simplify::{simplify, simplify_scene, Simplified, SimplifiedScene};
+pub(crate) use simplify::check_bound;
+pub use simplify::{simplify, simplify_scene, simplify_scene_on, Simplified, SimplifiedScene};
 
 /// A node's level of detail: the plane `normal · p = offset`, facing the
 /// side most of its triangles face.

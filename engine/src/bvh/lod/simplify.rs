@@ -28,7 +28,7 @@
 use glam::{DVec2, DVec3, Vec3};
 
 use super::{for_each_leaf_below, LodTree};
-use crate::bvh::{BuildOptions, MeshBvh};
+use crate::bvh::{BuildOptions, MeshBvh, SceneBvh};
 use crate::geometry::TriangleMesh;
 use crate::scene::{Scene, SceneObject};
 use crate::{Error, Result};
@@ -51,15 +51,22 @@ pub struct Simplified {
 /// (up to f32 rounding).
 /// A bound of 0 (or one below every node's error) gives the mesh itself.
 pub fn simplify(mesh: &TriangleMesh, max_error: f32) -> Result<Simplified> {
-    if !(max_error.is_finite() && max_error >= 0.0) {
-        return Err(Error::InvalidOption {
-            field: "lod_error_m".into(),
-            reason: format!("must be a finite distance of at least 0, not {max_error}"),
-        });
-    }
+    check_bound(max_error)?;
     let bvh = MeshBvh::build(mesh, &BuildOptions::default());
     let lods = LodTree::fit(&bvh);
     cut(mesh, &bvh, &lods, max_error)
+}
+
+/// Refuses a bound that is not a finite distance of at least 0.
+pub(crate) fn check_bound(max_error: f32) -> Result<()> {
+    if max_error.is_finite() && max_error >= 0.0 {
+        Ok(())
+    } else {
+        Err(Error::InvalidOption {
+            field: "lod_error_m".into(),
+            reason: format!("must be a finite distance of at least 0, not {max_error}"),
+        })
+    }
 }
 
 /// A scene with every object [simplified](simplify) in its own frame.
@@ -76,13 +83,57 @@ pub struct SimplifiedScene {
 /// `scene` with every object [simplified](simplify) in its own frame, each
 /// polygon of the material of the triangle it stands for.
 pub fn simplify_scene(scene: &Scene, max_error: f32) -> Result<SimplifiedScene> {
+    simplify_objects(scene, max_error, |_, mesh| simplify(mesh, max_error))
+}
+
+/// [`simplify_scene`] on the trees `world` holds for `scene`'s objects
+/// (built from them, refitted as they moved or deformed): nothing is built
+/// again, and each object's levels of detail, fitted on first use, serve
+/// every later bound ([`Instance::lods`](crate::bvh::Instance::lods)).
+/// Where the trees were built from the objects as they are, the result is
+/// [`simplify_scene`]'s; a refitted tree cuts differently, within the same
+/// bound. Refused where `world` does not hold one tree per object with the
+/// object's triangle count.
+pub fn simplify_scene_on(
+    scene: &Scene,
+    world: &SceneBvh,
+    max_error: f32,
+) -> Result<SimplifiedScene> {
+    let instances = world.instances();
+    if instances.len() != scene.objects.len() {
+        return Err(Error::InvalidScene(format!(
+            "{} trees for {} objects",
+            instances.len(),
+            scene.objects.len()
+        )));
+    }
+    simplify_objects(scene, max_error, |i, mesh| {
+        let bvh = instances[i].bvh();
+        if bvh.triangle_count() != mesh.triangle_count() {
+            return Err(Error::TriangleCountMismatch {
+                expected: mesh.triangle_count(),
+                actual: bvh.triangle_count(),
+            });
+        }
+        cut(mesh, bvh, &instances[i].lods(), max_error)
+    })
+}
+
+/// `scene` with object `i`'s mesh replaced by `simplify_object(i, mesh)`.
+fn simplify_objects(
+    scene: &Scene,
+    max_error: f32,
+    simplify_object: impl Fn(usize, &TriangleMesh) -> Result<Simplified>,
+) -> Result<SimplifiedScene> {
+    check_bound(max_error)?;
     let mut polygons = 0;
     let mut origins = Vec::with_capacity(scene.objects.len());
     let objects = scene
         .objects
         .iter()
-        .map(|o| {
-            let s = simplify(&o.mesh, max_error)?;
+        .enumerate()
+        .map(|(i, o)| {
+            let s = simplify_object(i, &o.mesh)?;
             polygons += s.polygons;
             let object = SceneObject {
                 materials: s.origin.iter().map(|&t| o.materials[t as usize]).collect(),
@@ -452,6 +503,56 @@ mod tests {
             let on_floor = o.mesh.corners(t).iter().all(|p| p.z == 0.0);
             assert_eq!(m, u16::from(on_floor), "triangle {t}");
         }
+    }
+
+    /// Cut on a scene's own trees: as a fresh build cuts where the trees
+    /// were built from the objects as they are; after a deformation the
+    /// tree was only refitted for (its levels of detail fitted before it),
+    /// every corner still within the bound; refused on trees of another
+    /// scene.
+    #[test]
+    fn a_scenes_own_trees_cut_within_the_bound() {
+        let sphere = shapes::icosphere(2.0, 4);
+        let ball = |mesh: &TriangleMesh| {
+            let raw = crate::scene::RawMesh {
+                positions: mesh.positions().to_vec(),
+                triangles: mesh.triangles().to_vec(),
+                ..Default::default()
+            };
+            Scene::single_object("ball", raw, Material::uniform("m", 0.1).unwrap()).unwrap()
+        };
+        let mut scene = ball(&sphere);
+        let mut world = SceneBvh::build(&scene, &BuildOptions::default());
+        assert_eq!(
+            simplify_scene_on(&scene, &world, 0.6).unwrap(),
+            simplify_scene(&scene, 0.6).unwrap()
+        );
+        let squashed: Vec<Vec3> = sphere
+            .positions()
+            .iter()
+            .map(|p| Vec3::new(1.5 * p.x, p.y, 0.4 * p.z))
+            .collect();
+        let mesh = TriangleMesh::new(squashed, sphere.triangles().to_vec()).unwrap();
+        let materials = scene.objects[0].materials.clone();
+        let report = world
+            .update_mesh(0, &mesh, &materials, f32::INFINITY)
+            .unwrap();
+        assert_eq!(report.action, crate::bvh::UpdateAction::Refit);
+        scene.objects[0].mesh = mesh.clone();
+        for bound in [0.3f32, 0.6] {
+            let s = simplify_scene_on(&scene, &world, bound).unwrap();
+            let cut = &s.scene.objects[0].mesh;
+            assert!(s.polygons > 0 && cut.triangle_count() < mesh.triangle_count());
+            for p in mesh.positions() {
+                let d = distance_to(cut, p.as_dvec3());
+                assert!(
+                    d <= f64::from(bound),
+                    "bound {bound}: corner {p} is {d} away"
+                );
+            }
+        }
+        let other = ball(&shapes::icosphere(1.0, 2));
+        assert!(simplify_scene_on(&other, &world, 0.6).is_err());
     }
 
     #[test]
