@@ -129,11 +129,14 @@ impl TailOptions {
     /// The most memory a trace of one source's tail can take for
     /// `listeners` listeners, bytes: every chunk's bins for the whole
     /// length, and each listener's region. Servers bound requests by it.
+    /// Saturates at `u64::MAX` for lengths no trace would accept, so that
+    /// servers can bound a request before checking its options.
     pub fn worst_memory_bytes(&self, listeners: usize) -> u64 {
-        let bins = (self.max_length_s / BIN_S).ceil().max(0.0) as u64 + 1;
-        let per_listener =
-            bins * (BAND_COUNT * std::mem::size_of::<f64>()) as u64 * CHUNKS as u64 + region::BYTES;
-        listeners as u64 * per_listener
+        let bins = ((self.max_length_s / BIN_S).ceil().max(0.0) as u64).saturating_add(1);
+        let per_listener = bins
+            .saturating_mul((BAND_COUNT * std::mem::size_of::<f64>() * CHUNKS) as u64)
+            .saturating_add(region::BYTES);
+        (listeners as u64).saturating_mul(per_listener)
     }
 }
 
@@ -574,6 +577,22 @@ fn receiver_radius(
 mod tests {
     use super::*;
 
+    /// A length or listener count no trace accepts bounds memory at the
+    /// most, never overflows (found by the server's bad-input property
+    /// test: a debug build panicked on it).
+    #[test]
+    fn worst_memory_saturates() {
+        let options = |max_length_s| TailOptions {
+            max_length_s,
+            ..TailOptions::default()
+        };
+        assert_eq!(options(1e30).worst_memory_bytes(1), u64::MAX);
+        assert_eq!(options(f64::INFINITY).worst_memory_bytes(2), u64::MAX);
+        assert_eq!(options(3.0).worst_memory_bytes(usize::MAX), u64::MAX);
+        let one = options(3.0).worst_memory_bytes(1);
+        assert!(one > 0 && one < 1 << 30);
+        assert_eq!(options(3.0).worst_memory_bytes(3), 3 * one);
+    }
     #[test]
     fn tail_reads_none_null_and_objects_and_names_bad_fields() {
         let parse = |json: &str| serde_json::from_str::<Tail>(json);
