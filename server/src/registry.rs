@@ -174,8 +174,9 @@ impl Registry {
         };
         for s in stored {
             let id = s.id.clone();
+            let revision = s.revision;
             match restore(s) {
-                Ok((meta, scene)) => registry.insert(id, meta, scene),
+                Ok((meta, scene)) => registry.insert(id, meta, scene, revision),
                 Err(e) => tracing::error!(scene = %id, error = %e, "stored scene does not load"),
             }
         }
@@ -286,13 +287,16 @@ impl Registry {
         self.store
             .put_scene(&id, &meta, &document)
             .map_err(ApiError::storage)?;
-        self.insert(id, meta, scene);
+        self.insert(id, meta, scene, 0);
         Ok(())
     }
 
-    fn insert(&self, id: String, meta: SceneMeta, scene: Scene) {
+    /// Serves `scene` under `id`, its revisions counted on from
+    /// `revision` (0 for a new upload, the stored count after a restart).
+    fn insert(&self, id: String, meta: SceneMeta, scene: Scene, revision: u64) {
         let start = Instant::now();
-        let acoustic = AcousticScene::new(&scene);
+        let mut acoustic = AcousticScene::new(&scene);
+        acoustic.resume_revision(revision);
         let build_ms = start.elapsed().as_secs_f64() * 1e3;
         tracing::info!(scene = %id, triangles = scene.triangle_count(), build_ms, "scene ready");
         let entry = SceneEntry {
@@ -306,7 +310,7 @@ impl Registry {
                 build_ms,
                 deleted: false,
             }),
-            revisions: watch::Sender::new(Some(0)),
+            revisions: watch::Sender::new(Some(revision)),
         };
         let triangles = entry.read().scene.triangle_count();
         // Locks in the order budget, then scenes, as `reserve` takes them.
@@ -395,8 +399,13 @@ impl Registry {
                 positions: p.mesh.as_ref().map(|m| m.positions()),
             })
             .collect();
+        // Each transform and each new mesh is one change of the engine's.
+        let changes: u64 = prepared
+            .iter()
+            .map(|p| u64::from(p.transform.is_some()) + u64::from(p.mesh.is_some()))
+            .sum();
         self.store
-            .put_object_edits(&entry.id, &overlays)
+            .put_object_edits(&entry.id, &overlays, live.acoustic.revision() + changes)
             .map_err(ApiError::storage)?;
         let mut reports = Vec::with_capacity(prepared.len());
         for PreparedEdit {
@@ -470,7 +479,7 @@ impl Registry {
         check_material_table(live.scene.materials.len(), &scene.materials)
             .map_err(ApiError::from_engine)?;
         self.store
-            .put_materials(&entry.id, &scene.materials)
+            .put_materials(&entry.id, &scene.materials, live.acoustic.revision() + 1)
             .map_err(ApiError::storage)?;
         live.acoustic
             .set_materials(scene.materials.clone())
@@ -719,6 +728,44 @@ mod tests {
         assert_eq!(second.recv().unwrap().1, "urn:frusta:problem:scene-exists");
     }
 
+    /// Revisions count on across a restart: answers after it never name
+    /// a revision an earlier state had.
+    #[tokio::test]
+    async fn revisions_survive_a_restart() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        server.translate("box", "panel", [0.5, 0.0, 0.0]).await;
+        let (status, _, edited) = server
+            .send(patch_json(
+                "/v1/scenes/box/materials",
+                r#"{"materials": {"walls": {"absorption": 0.3}}}"#,
+            ))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{edited}");
+        let both = r#"{"translation": [1, 0, 0], "vertices": [[4, 1, 0.5], [4, 2, 0.5], [4, 2, 2.5], [4, 1, 2]]}"#;
+        let (status, _, edited) = server
+            .send(patch_json("/v1/scenes/box/objects/panel", both))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{edited}");
+        let revision = |server: &TestServer| {
+            server
+                .state
+                .registry()
+                .get("box")
+                .unwrap()
+                .read()
+                .acoustic
+                .revision()
+        };
+        assert_eq!(revision(&server), 4);
+        let server = server.restart();
+        assert_eq!(revision(&server), 4);
+        let (_, _, detail) = server.send(get("/v1/scenes/box")).await;
+        assert_eq!(detail["revision"], 4);
+        server.translate("box", "panel", [0.0, 0.5, 0.0]).await;
+        assert_eq!(revision(&server), 5);
+    }
+
     #[tokio::test]
     async fn a_stored_edit_that_no_longer_loads_costs_that_edit_not_the_scene() {
         let server = TestServer::new();
@@ -735,7 +782,7 @@ mod tests {
         let registry = server.state.registry();
         registry
             .store()
-            .put_object_edits("box", &[overlay])
+            .put_object_edits("box", &[overlay], 1)
             .unwrap();
         let server = server.restart();
         let entry = server

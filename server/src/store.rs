@@ -29,6 +29,9 @@ const POSITIONS: TableDefinition<(&str, u32), &[u8]> = TableDefinition::new("obj
 /// Scene id -> the whole material table as JSON (a list of engine
 /// materials), replacing the document's.
 const MATERIALS: TableDefinition<&str, &[u8]> = TableDefinition::new("scene_materials");
+/// Scene id -> its revision after the last stored edit (absent: 0), so a
+/// restart does not take revisions back.
+const REVISIONS: TableDefinition<&str, u64> = TableDefinition::new("scene_revisions");
 /// Store-wide flags, such as whether the bundled scenes were ever added.
 const FLAGS: TableDefinition<&str, bool> = TableDefinition::new("flags");
 
@@ -79,6 +82,8 @@ pub struct StoredScene {
     pub positions: Vec<(u32, Vec<Vec3>)>,
     /// The material table of the last material edit, if any.
     pub materials: Option<Vec<Material>>,
+    /// The revision after the last stored edit.
+    pub revision: u64,
 }
 
 pub struct Store {
@@ -99,6 +104,7 @@ impl Store {
             txn.open_table(TRANSFORMS)?;
             txn.open_table(POSITIONS)?;
             txn.open_table(MATERIALS)?;
+            txn.open_table(REVISIONS)?;
             txn.open_table(FLAGS)?;
         }
         txn.commit()?;
@@ -139,19 +145,33 @@ impl Store {
         })
     }
 
-    /// Stores a scene's new material table (its document is unchanged).
-    pub fn put_materials(&self, id: &str, materials: &[Material]) -> StoreResult<()> {
+    /// Stores a scene's new material table (its document is unchanged)
+    /// and its revision after the edit.
+    pub fn put_materials(
+        &self,
+        id: &str,
+        materials: &[Material],
+        revision: u64,
+    ) -> StoreResult<()> {
         let bytes = serde_json::to_vec(materials).expect("materials serialise");
         self.write(|txn| {
             txn.open_table(MATERIALS)?.insert(id, bytes.as_slice())?;
+            txn.open_table(REVISIONS)?.insert(id, revision)?;
             Ok(())
         })
     }
 
-    /// Stores object edits (new transforms and vertex positions) in one
-    /// transaction: after a crash, all of them are stored or none.
-    pub fn put_object_edits(&self, id: &str, edits: &[ObjectOverlay<'_>]) -> StoreResult<()> {
+    /// Stores object edits (new transforms and vertex positions) and the
+    /// scene's revision after them in one transaction: after a crash, all
+    /// of them are stored or none.
+    pub fn put_object_edits(
+        &self,
+        id: &str,
+        edits: &[ObjectOverlay<'_>],
+        revision: u64,
+    ) -> StoreResult<()> {
         self.write(|txn| {
+            txn.open_table(REVISIONS)?.insert(id, revision)?;
             let mut transforms = txn.open_table(TRANSFORMS)?;
             let mut positions = txn.open_table(POSITIONS)?;
             for edit in edits {
@@ -180,6 +200,7 @@ impl Store {
         let transforms = txn.open_table(TRANSFORMS)?;
         let positions = txn.open_table(POSITIONS)?;
         let materials = txn.open_table(MATERIALS)?;
+        let revisions = txn.open_table(REVISIONS)?;
         let mut out = Vec::new();
         for entry in meta.iter()? {
             let (id, m) = entry?;
@@ -202,6 +223,7 @@ impl Store {
                 transforms: Vec::new(),
                 positions: Vec::new(),
                 materials: table,
+                revision: revisions.get(id.as_str())?.map_or(0, |r| r.value()),
                 id,
             };
             let key = scene.id.as_str();
@@ -236,6 +258,7 @@ fn clear_overlays(txn: &redb::WriteTransaction, id: &str) -> StoreResult<()> {
     txn.open_table(POSITIONS)?
         .retain_in((id, 0)..=(id, u32::MAX), |_, _| false)?;
     txn.open_table(MATERIALS)?.remove(id)?;
+    txn.open_table(REVISIONS)?.remove(id)?;
     Ok(())
 }
 
@@ -298,13 +321,14 @@ mod tests {
                             positions: Some(&positions),
                         },
                     ],
+                    2,
                 )
                 .expect("edits");
             let felt = Material::uniform("felt", 0.7).unwrap();
             store
-                .put_materials("a", std::slice::from_ref(&felt))
+                .put_materials("a", std::slice::from_ref(&felt), 3)
                 .expect("materials");
-            store.put_materials("b", &[felt]).expect("materials");
+            store.put_materials("b", &[felt], 1).expect("materials");
             store.delete_scene("b").expect("delete");
         }
         let store = Store::open(&dir).expect("reopen");
@@ -326,6 +350,7 @@ mod tests {
             a.materials,
             Some(vec![Material::uniform("felt", 0.7).unwrap()])
         );
+        assert_eq!(a.revision, 3);
     }
 
     #[test]
@@ -340,19 +365,21 @@ mod tests {
             transform: Some(&t),
             positions: None,
         }];
-        store.put_object_edits("a", &moved).expect("transform");
-        store.put_object_edits("ab", &moved).expect("transform");
+        store.put_object_edits("a", &moved, 1).expect("transform");
+        store.put_object_edits("ab", &moved, 1).expect("transform");
         let felt = [Material::uniform("felt", 0.7).unwrap()];
-        store.put_materials("a", &felt).expect("materials");
-        store.put_materials("ab", &felt).expect("materials");
+        store.put_materials("a", &felt, 2).expect("materials");
+        store.put_materials("ab", &felt, 2).expect("materials");
         store.put_scene("a", &meta(), "new").expect("replace");
         let scenes = store.load_all().expect("load");
         std::fs::remove_dir_all(&dir).expect("clean up");
         assert_eq!(scenes[0].document, "new");
         assert!(scenes[0].transforms.is_empty());
         assert!(scenes[0].materials.is_none());
+        assert_eq!(scenes[0].revision, 0, "a new document counts from 0");
         assert_eq!(scenes[1].transforms.len(), 1, "a prefix id keeps its edits");
         assert!(scenes[1].materials.is_some());
+        assert_eq!(scenes[1].revision, 2);
     }
 
     #[test]

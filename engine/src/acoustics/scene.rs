@@ -162,6 +162,14 @@ impl AcousticScene {
         self.revision
     }
 
+    /// Continues the count of changes from `revision`: for a scene built
+    /// again from a store that counted its changes before (a restarted
+    /// service), so that revisions never go back. Ignored where it is
+    /// below the count already made.
+    pub fn resume_revision(&mut self, revision: u64) {
+        self.revision = self.revision.max(revision);
+    }
+
     /// This state's identity: process-unique and new with every change
     /// (also a refused one, since dropping a cache is always safe), so it
     /// differs between scenes. What traced beams are valid for.
