@@ -14,4 +14,6 @@ pub mod stream;
 pub mod visibility;
 
 #[cfg(test)]
+mod bad_input_props;
+#[cfg(test)]
 pub(crate) mod test_support;
