@@ -174,9 +174,8 @@ impl Registry {
         };
         for s in stored {
             let id = s.id.clone();
-            let revision = s.revision;
             match restore(s) {
-                Ok((meta, scene)) => registry.insert(id, meta, scene, revision),
+                Ok((meta, scene, revision)) => registry.insert(id, meta, scene, revision),
                 Err(e) => tracing::error!(scene = %id, error = %e, "stored scene does not load"),
             }
         }
@@ -549,8 +548,11 @@ fn reloadable(scene: &Scene) -> Result<String, ApiError> {
 /// The stored document with its overlays. An overlay that no longer
 /// applies (written by an older server that checked less) is logged and
 /// skipped: the object keeps its previous state, the scene stays served.
-fn restore(s: StoredScene) -> frusta_engine::Result<(SceneMeta, Scene)> {
+/// With it, the revision to resume from: the stored one, or one more where
+/// an edit was skipped.
+fn restore(s: StoredScene) -> frusta_engine::Result<(SceneMeta, Scene, u64)> {
     let mut scene = Scene::from_json_str(&s.document, None)?;
+    let mut skips = 0;
     let skipped = |object: u32, e: frusta_engine::Error| {
         tracing::error!(scene = %s.id, object, error = %e, "stored object edit does not load; skipped");
     };
@@ -558,7 +560,8 @@ fn restore(s: StoredScene) -> frusta_engine::Result<(SceneMeta, Scene)> {
         match check_material_table(scene.materials.len(), &materials) {
             Ok(()) => scene.materials = materials,
             Err(e) => {
-                tracing::error!(scene = %s.id, error = %e, "stored material table does not load; skipped")
+                tracing::error!(scene = %s.id, error = %e, "stored material table does not load; skipped");
+                skips += 1;
             }
         }
     }
@@ -566,7 +569,10 @@ fn restore(s: StoredScene) -> frusta_engine::Result<(SceneMeta, Scene)> {
         if let Some(o) = scene.objects.get_mut(object as usize) {
             match t.validated() {
                 Ok(t) => o.transform = t,
-                Err(e) => skipped(object, e),
+                Err(e) => {
+                    skipped(object, e);
+                    skips += 1;
+                }
             }
         }
     }
@@ -574,11 +580,16 @@ fn restore(s: StoredScene) -> frusta_engine::Result<(SceneMeta, Scene)> {
         if let Some(o) = scene.objects.get_mut(object as usize) {
             match TriangleMesh::new(positions, o.mesh.triangles().to_vec()) {
                 Ok(mesh) => o.mesh = mesh,
-                Err(e) => skipped(object, e),
+                Err(e) => {
+                    skipped(object, e);
+                    skips += 1;
+                }
             }
         }
     }
-    Ok((s.meta, scene))
+    // A skipped edit leaves a state the stored revision did not name.
+    let revision = s.revision + u64::from(skips > 0);
+    Ok((s.meta, scene, revision))
 }
 
 pub fn now_unix_ms() -> u64 {
@@ -790,11 +801,14 @@ mod tests {
             .registry()
             .get("box")
             .expect("the scene is still served");
-        let panel = &entry.read().scene.objects[1];
+        let live = entry.read();
         assert_eq!(
-            panel.transform,
+            live.scene.objects[1].transform,
             frusta_engine::geometry::RigidTransform::IDENTITY
         );
+        // Not the stored edit's revision: that names the state it would
+        // have made.
+        assert_eq!(live.acoustic.revision(), 2);
     }
 
     #[tokio::test]

@@ -172,9 +172,9 @@ impl Drop for CancelOnDrop {
 
 /// Simulates under the scene's read lock, within the compute limit, on the
 /// scene simplified within the request's `lod_error_m` where it has one
-/// (taken from `lods`, or moved or made there; making it, not bounded by
-/// the compute limit, costs at most a build of the simplified geometry,
-/// no more than the upload's build). With a
+/// (taken from `lods`, or moved or made there; making it, a walk of the
+/// scene's trees, their planes' fit on first use and a build of the
+/// result, is not bounded by the compute limit). With a
 /// `cache` (a stream), the frusta traced from unchanged sources are kept
 /// for moving listeners; the engine drops them when the geometry,
 /// materials or options change. Without one (a one-off request), listeners

@@ -29,7 +29,8 @@ pub struct AcousticScene {
     surfaces: Surfaces,
     /// Diffracting edges, found again per object as objects change.
     edges: Edges,
-    /// Changes since the scene was built: what answers name.
+    /// Changes since the scene was built, counted on from a resumed
+    /// count: what answers name.
     revision: u64,
     /// This state's identity for caches, new with every change.
     state: u64,
@@ -155,7 +156,8 @@ impl AcousticScene {
     }
 
     /// How many changes ([`Self::set_transform`], [`Self::update_mesh`],
-    /// [`Self::set_materials`]) the scene has had since it was built: the
+    /// [`Self::set_materials`]) the scene has had since it was built (or
+    /// since the count it [resumed](Self::resume_revision) from): the
     /// revision answers name, so a client can tell which state they
     /// belong to.
     pub fn revision(&self) -> u64 {

@@ -2,9 +2,10 @@
 //! with a few of their values replaced by adversarial ones (wrong types,
 //! non-finite and out-of-range numbers, missing and unknown keys, long
 //! arrays), or taken apart. The service must answer each with a success or
-//! a 4xx problem document (a compute limit or timeout included), never a
-//! 500 or a panic; a refused request must leave the stored scene as it
-//! was, and what the accepted ones stored must come back after a restart.
+//! a 4xx problem document (a compute limit included), never a 5xx or a
+//! panic; a refused request must leave the scene as it was (its document
+//! and revision), and what the accepted ones stored must come back after a
+//! restart.
 
 use axum::http::StatusCode;
 use proptest::prelude::*;
@@ -103,10 +104,14 @@ fn adversarial() -> Vec<Value> {
     ]
 }
 
-/// Numbers that parse as every numeric field does, and test its range.
+/// Numbers that parse as every real field does, and test its range.
 const NUMBERS: [f64; 14] = [
     0.0, -0.0, -1.0, 0.5, 1e-320, 1e-30, 1e-7, 7.0, 1e7, 1e30, 3.5e38, 1e39, 1e308, -1e308,
 ];
+
+/// The same for integer fields (counts, sizes, orders), which refuse a
+/// number with a fraction when parsing.
+const INTEGERS: [i64; 10] = [0, 1, 2, 7, 9, 65, 100_000, 4_294_967_295, 4_294_967_296, -1];
 
 /// Names of what the scene holds, and of what it does not.
 const NAMES: [&str; 5] = ["room", "panel", "walls", "nope", ""];
@@ -117,7 +122,8 @@ enum Edit {
     /// Replace the node at (a hash of) a path by an adversarial value.
     Replace(usize, usize),
     /// Replace a number (the one at a hash of the numbers' paths) by
-    /// another: the body still parses, so the handler's own checks meet it.
+    /// another of its kind (integer or real): the body still parses, so
+    /// the handler's own checks meet it.
     Number(usize, usize),
     /// Replace a string by a name (of the scene's objects and materials,
     /// or none of them).
@@ -185,7 +191,12 @@ fn apply(body: &mut Value, edit: &Edit) {
     match *edit {
         Edit::Number(p, v) => {
             if let Some(path) = of_kind(p, Value::is_number) {
-                *node(body, &path) = json!(NUMBERS[v % NUMBERS.len()]);
+                let number = node(body, &path);
+                *number = if number.is_f64() {
+                    json!(NUMBERS[v % NUMBERS.len()])
+                } else {
+                    json!(INTEGERS[v % INTEGERS.len()])
+                };
             }
         }
         Edit::Name(p, v) => {
@@ -230,15 +241,21 @@ fn apply(body: &mut Value, edit: &Edit) {
     }
 }
 
-/// The stored scene as a client sees it.
-async fn stored(server: &TestServer) -> Value {
-    let (status, _, detail) = server.send(get("/v1/scenes/box")).await;
-    assert_eq!(status, StatusCode::OK, "{detail}");
-    detail
+/// The scene as served: its document (geometry, transforms, materials)
+/// and its revision.
+fn served(server: &TestServer) -> (String, u64) {
+    let entry = server.state.registry().get("box").expect("the scene");
+    let live = entry.read();
+    (
+        live.scene.to_json().expect("a document"),
+        live.acoustic.revision(),
+    )
 }
 
-async fn check(server: &TestServer, seed: &Seed, body: &Value) -> Result<(), TestCaseError> {
-    let before = stored(server).await;
+/// Sends `body` to `seed`'s route: a success, or a 4xx problem document
+/// that leaves the scene as it was. Returns whether it succeeded.
+async fn check(server: &TestServer, seed: &Seed, body: &Value) -> Result<bool, TestCaseError> {
+    let before = served(server);
     let text = body.to_string();
     let request = match seed.method {
         "PATCH" => patch_json(seed.uri, &text),
@@ -247,7 +264,7 @@ async fn check(server: &TestServer, seed: &Seed, body: &Value) -> Result<(), Tes
     let (status, content_type, bytes) = server.send_raw(request).await;
     let answer = String::from_utf8_lossy(&bytes);
     prop_assert!(
-        status.is_success() || status.is_client_error() || status == StatusCode::GATEWAY_TIMEOUT,
+        status.is_success() || status.is_client_error(),
         "{} {}: {status} {answer}\nrequest: {text}",
         seed.method,
         seed.uri
@@ -259,13 +276,12 @@ async fn check(server: &TestServer, seed: &Seed, body: &Value) -> Result<(), Tes
             "{}",
             answer
         );
-        prop_assert_eq!(
-            &stored(server).await,
-            &before,
-            "refused, yet the scene changed"
+        prop_assert!(
+            served(server) == before,
+            "refused, yet the scene changed: {text}"
         );
     }
-    Ok(())
+    Ok(status.is_success())
 }
 
 /// Each route's own request is accepted, so the edits below start from
@@ -294,7 +310,7 @@ async fn every_seed_is_accepted() {
 async fn small_server() -> TestServer {
     let server = TestServer::with(|c| {
         c.limits.max_compute_ms = 300;
-        c.limits.request_timeout_s = 5;
+        c.limits.request_timeout_s = 30;
     });
     let (status, _, out) = server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
     assert_eq!(status, StatusCode::CREATED, "{out}");
@@ -322,6 +338,7 @@ fn bad_input_is_refused_with_a_problem_and_changes_nothing() {
     let mut runner =
         TestRunner::new_with_rng(config, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
     let strategy = (0..seeds.len(), prop::collection::vec(edit(), 1..4));
+    let accepted: Vec<std::cell::Cell<u32>> = seeds.iter().map(|_| Default::default()).collect();
     runner
         .run(&strategy, |(route, edits)| {
             let seed = &seeds[route];
@@ -329,18 +346,22 @@ fn bad_input_is_refused_with_a_problem_and_changes_nothing() {
             for e in &edits {
                 apply(&mut body, e);
             }
-            runtime.block_on(check(&server, seed, &body))
+            let ok = runtime.block_on(check(&server, seed, &body))?;
+            accepted[route].set(accepted[route].get() + u32::from(ok));
+            Ok(())
         })
         .unwrap();
-    // What the accepted edits stored comes back after a restart (not the
-    // hierarchy, rebuilt where it was refitted, nor its build time).
-    let kept = |mut detail: Value| {
-        let fields = detail.as_object_mut().expect("a scene");
-        fields.remove("bvh");
-        fields.remove("build_ms");
-        detail
-    };
-    let before = kept(runtime.block_on(stored(&server)));
+    // Edited requests reached every route's handler and some were taken,
+    // so the checks above had something to check.
+    for (seed, n) in seeds.iter().zip(&accepted) {
+        assert!(
+            n.get() > 0,
+            "no edited request to {} was accepted",
+            seed.uri
+        );
+    }
+    // What the accepted edits stored comes back after a restart.
+    let before = served(&server);
     let server = server.restart();
-    assert_eq!(kept(runtime.block_on(stored(&server))), before);
+    assert_eq!(served(&server), before);
 }

@@ -129,8 +129,9 @@ impl TailOptions {
     /// The most memory a trace of one source's tail can take for
     /// `listeners` listeners, bytes: every chunk's bins for the whole
     /// length, and each listener's region. Servers bound requests by it.
-    /// Saturates at `u64::MAX` for lengths no trace would accept, so that
-    /// servers can bound a request before checking its options.
+    /// Saturates at `u64::MAX` for lengths too long for any trace (a NaN
+    /// or negative length counts as none), so that servers can bound a
+    /// request before checking its options.
     pub fn worst_memory_bytes(&self, listeners: usize) -> u64 {
         let bins = ((self.max_length_s / BIN_S).ceil().max(0.0) as u64).saturating_add(1);
         let per_listener = bins

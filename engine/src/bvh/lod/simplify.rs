@@ -92,8 +92,10 @@ pub fn simplify_scene(scene: &Scene, max_error: f32) -> Result<SimplifiedScene> 
 /// every later bound ([`Instance::lods`](crate::bvh::Instance::lods)).
 /// Where the trees were built from the objects as they are, the result is
 /// [`simplify_scene`]'s; a refitted tree cuts differently, within the same
-/// bound. Refused where `world` does not hold one tree per object with the
-/// object's triangle count.
+/// bound. The trees must be of `scene`'s meshes as they are (a tree of
+/// other corners would cut by the wrong planes): refused where `world` does
+/// not hold one tree per object with the object's triangle count, and
+/// checked corner by corner in debug builds.
 pub fn simplify_scene_on(
     scene: &Scene,
     world: &SceneBvh,
@@ -115,6 +117,13 @@ pub fn simplify_scene_on(
                 actual: bvh.triangle_count(),
             });
         }
+        debug_assert!(
+            bvh.prim_ids()
+                .iter()
+                .zip(bvh.leaf_triangles())
+                .all(|(&t, corners)| *corners == mesh.corners(t as usize)),
+            "object {i}'s tree is not of its mesh"
+        );
         cut(mesh, bvh, &instances[i].lods(), max_error)
     })
 }
@@ -505,6 +514,16 @@ mod tests {
         }
     }
 
+    /// A scene of one object, `mesh`.
+    fn ball(mesh: &TriangleMesh) -> Scene {
+        let raw = crate::scene::RawMesh {
+            positions: mesh.positions().to_vec(),
+            triangles: mesh.triangles().to_vec(),
+            ..Default::default()
+        };
+        Scene::single_object("ball", raw, Material::uniform("m", 0.1).unwrap()).unwrap()
+    }
+
     /// Cut on a scene's own trees: as a fresh build cuts where the trees
     /// were built from the objects as they are; after a deformation the
     /// tree was only refitted for (its levels of detail fitted before it),
@@ -513,14 +532,6 @@ mod tests {
     #[test]
     fn a_scenes_own_trees_cut_within_the_bound() {
         let sphere = shapes::icosphere(2.0, 4);
-        let ball = |mesh: &TriangleMesh| {
-            let raw = crate::scene::RawMesh {
-                positions: mesh.positions().to_vec(),
-                triangles: mesh.triangles().to_vec(),
-                ..Default::default()
-            };
-            Scene::single_object("ball", raw, Material::uniform("m", 0.1).unwrap()).unwrap()
-        };
         let mut scene = ball(&sphere);
         let mut world = SceneBvh::build(&scene, &BuildOptions::default());
         assert_eq!(
@@ -553,6 +564,16 @@ mod tests {
         }
         let other = ball(&shapes::icosphere(1.0, 2));
         assert!(simplify_scene_on(&other, &world, 0.6).is_err());
+    }
+
+    /// Trees of other corners with the same triangle count are caught in
+    /// debug builds, not cut by the wrong planes.
+    #[cfg(debug_assertions)]
+    #[test]
+    #[should_panic(expected = "tree is not of its mesh")]
+    fn trees_of_other_corners_are_caught() {
+        let world = SceneBvh::build(&ball(&shapes::icosphere(2.0, 2)), &BuildOptions::default());
+        let _ = simplify_scene_on(&ball(&shapes::icosphere(1.0, 2)), &world, 0.5);
     }
 
     #[test]
