@@ -73,13 +73,18 @@ impl LodCache {
     /// `live` (read under its entry's lock): the kept one if there is one
     /// of this state and bound, else one moved from the kept one of an
     /// earlier state with the same meshes, else made (outside the cache's
-    /// lock); kept in either case if it fits.
+    /// lock); kept in either case if it fits. `None` where the bound
+    /// replaces nothing (below every level of detail's error): the scene's
+    /// own geometry answers, not a copy of it built again.
     pub fn get(
         &self,
         id: &str,
         live: &LiveScene,
         bound: f32,
-    ) -> Result<Arc<AcousticScene>, ApiError> {
+    ) -> Result<Option<Arc<AcousticScene>>, ApiError> {
+        if !live.acoustic.simplifies_at(bound) {
+            return Ok(None);
+        }
         let key = (live.acoustic.state(), bound.to_bits());
         let earlier = {
             let mut kept = self.lock();
@@ -87,7 +92,7 @@ impl LodCache {
                 let hit = kept.remove(i);
                 let scene = Arc::clone(&hit.scene);
                 kept.push(hit);
-                return Ok(scene);
+                return Ok(Some(scene));
             }
             let same_meshes =
                 |k: &Kept| k.id == id && k.bound == key.1 && k.mesh_versions == live.mesh_versions;
@@ -122,7 +127,7 @@ impl LodCache {
                 scene: Arc::clone(&scene),
             });
         }
-        Ok(scene)
+        Ok(Some(scene))
     }
 
     /// How many simplifications were made.
@@ -167,19 +172,20 @@ mod tests {
             .lod_cache()
             .get(id, &live, bound)
             .expect("simplified")
+            .expect("a bound that replaces something")
     }
 
     #[tokio::test]
     async fn kept_per_state_and_bound_and_made_again_after_an_edit() {
         let server = TestServer::new();
         server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
-        let first = simplified(&server, "box", 0.5);
-        assert_eq!(first.lod_error_m(), 0.5);
-        assert!(Arc::ptr_eq(&first, &simplified(&server, "box", 0.5)));
-        assert!(!Arc::ptr_eq(&first, &simplified(&server, "box", 0.25)));
+        let first = simplified(&server, "box", 7.5);
+        assert_eq!(first.lod_error_m(), 7.5);
+        assert!(Arc::ptr_eq(&first, &simplified(&server, "box", 7.5)));
+        assert!(!Arc::ptr_eq(&first, &simplified(&server, "box", 7.25)));
         let made = server.state.lod_cache().made();
         server.translate("box", "panel", [1.0, 0.0, 0.0]).await;
-        let moved = simplified(&server, "box", 0.5);
+        let moved = simplified(&server, "box", 7.5);
         assert!(!Arc::ptr_eq(&first, &moved));
         let panel = |s: &AcousticScene| s.bvh().instances()[1].to_world().translation;
         assert_eq!(panel(&moved), panel(&first) + glam::Vec3::X);
@@ -193,7 +199,7 @@ mod tests {
             ))
             .await;
         assert!(status.is_success(), "{answer}");
-        let curtained = simplified(&server, "box", 0.5);
+        let curtained = simplified(&server, "box", 7.5);
         assert_eq!(server.state.lod_cache().made(), made);
         let live = server.state.registry().get("box").expect("the scene");
         assert_eq!(curtained.materials(), live.read().acoustic.materials());
@@ -206,10 +212,30 @@ mod tests {
             ))
             .await;
         assert!(status.is_success(), "{answer}");
-        let reshaped = simplified(&server, "box", 0.5);
+        let reshaped = simplified(&server, "box", 7.5);
         assert_eq!(server.state.lod_cache().made(), made + 1);
         let top = |s: &AcousticScene| s.bvh().instances()[1].bvh().bounds().max.z;
         assert_eq!(top(&reshaped), 2.5);
+    }
+
+    /// A bound below every level of detail's error replaces nothing: the
+    /// scene's own geometry answers, and nothing is made or kept.
+    #[tokio::test]
+    async fn a_bound_that_replaces_nothing_makes_nothing() {
+        let server = TestServer::new();
+        server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
+        let entry = server.state.registry().get("box").expect("the scene");
+        let cache = server.state.lod_cache();
+        // The panel's one node has an error of about 0.9 m, the room's 6.7.
+        assert!(cache
+            .get("box", &entry.read(), 0.5)
+            .expect("answered")
+            .is_none());
+        assert!(cache
+            .get("box", &entry.read(), 1.0)
+            .expect("answered")
+            .is_some());
+        assert_eq!(cache.made(), 1);
     }
 
     /// Deleted and uploaded again under the same id with the same meshes
@@ -218,12 +244,12 @@ mod tests {
     async fn a_scene_uploaded_again_with_other_names_is_simplified_again() {
         let server = TestServer::new();
         server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
-        simplified(&server, "box", 0.5);
+        simplified(&server, "box", 7.5);
         let made = server.state.lod_cache().made();
         server.send(delete("/v1/scenes/box")).await;
         let renamed = BOX_DOC.replace("panel", "screen");
         server.send(post_json("/v1/scenes?id=box", &renamed)).await;
-        let again = simplified(&server, "box", 0.5);
+        let again = simplified(&server, "box", 7.5);
         assert_eq!(server.state.lod_cache().made(), made + 1);
         assert_eq!(again.object_names()[1], "screen");
     }
@@ -237,20 +263,26 @@ mod tests {
         server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
         let entry = server.state.registry().get("box").expect("the scene");
         let live = entry.read();
-        // The box's 14 triangles are flat and stay: 14 a simplification.
-        let cache = super::LodCache::with_budget(30);
-        let get = |bound: f32| cache.get("box", &live, bound).expect("simplified");
-        for bound in [0.5, 0.25, 0.75] {
+        // Past the room's one node (error about 6.7 m) it is one rectangle,
+        // the flat panel stays: 4 triangles a simplification.
+        let cache = super::LodCache::with_budget(10);
+        let get = |bound: f32| {
+            cache
+                .get("box", &live, bound)
+                .expect("simplified")
+                .expect("made")
+        };
+        for bound in [7.5, 7.25, 7.75] {
             get(bound);
         }
         assert_eq!(cache.made(), 3);
-        get(0.75);
+        get(7.75);
         assert_eq!(cache.made(), 3, "kept");
-        get(0.5);
-        assert_eq!(cache.made(), 4, "dropped for 0.75");
-        let small = super::LodCache::with_budget(10);
-        small.get("box", &live, 0.5).expect("simplified");
-        small.get("box", &live, 0.5).expect("simplified");
+        get(7.5);
+        assert_eq!(cache.made(), 4, "dropped for 7.75");
+        let small = super::LodCache::with_budget(3);
+        small.get("box", &live, 7.5).expect("simplified");
+        small.get("box", &live, 7.5).expect("simplified");
         assert_eq!(small.made(), 2);
     }
 

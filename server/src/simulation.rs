@@ -190,7 +190,7 @@ pub fn run(
     let live = entry.read();
     let simplified = match request.lod_error_m {
         0.0 => None,
-        bound => Some(lods.get(&entry.id, &live, bound)?),
+        bound => lods.get(&entry.id, &live, bound)?,
     };
     let deadline = Instant::now() + limits.max_compute();
     let (scene, sources, listeners, options) = (

@@ -118,9 +118,10 @@ pub struct StatsOut {
     pub tail: Option<TailStatsOut>,
     pub total_ms: f64,
     pub threads: usize,
-    /// The request's `lod_error_m`: the error bound of the simplified
-    /// geometry this was computed on, m (0: exact geometry). With a bound,
-    /// paths name the original triangle each polygon stands for.
+    /// The error bound of the simplified geometry this was computed on, m:
+    /// the request's `lod_error_m`, or 0 for exact geometry (also where the
+    /// bound replaced nothing). With a bound, paths name the original
+    /// triangle each polygon stands for.
     #[serde(default)]
     pub lod_error_m: f32,
 }

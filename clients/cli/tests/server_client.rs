@@ -191,17 +191,29 @@ fn ir_on_the_server_matches_ir_offline() {
     }
     assert_eq!(remote["sample_rate"], 16000);
 
-    // With --lod-error both say so; the shoebox's walls are flat and stay
-    // as they are, so the paths are the same.
-    let lod = [&flags[..], &["--lod-error", "0.5"]].concat();
-    let offline_lod =
-        stdout_json(&server.frusta(&[&["ir", "--scene", SHOEBOX], &lod[..]].concat()));
-    let remote_lod =
-        stdout_json(&server.frusta(&[&["ir", "--scene-id", "shoebox"], &lod[..]].concat()));
+    // With --lod-error on the shoebox: at 0.5 m its flat walls stay as
+    // they are, so both answer on the exact geometry and say so (bound 0);
+    // at 8 m the room is one rectangle (its one node's error is about
+    // 6.7 m), and both say 8 and agree on the paths.
+    let ask = |bound: &str| {
+        let lod = [&flags[..], &["--lod-error", bound]].concat();
+        let offline =
+            stdout_json(&server.frusta(&[&["ir", "--scene", SHOEBOX], &lod[..]].concat()));
+        let remote =
+            stdout_json(&server.frusta(&[&["ir", "--scene-id", "shoebox"], &lod[..]].concat()));
+        (offline, remote)
+    };
+    let (offline_lod, remote_lod) = ask("0.5");
     for doc in [&offline_lod, &remote_lod] {
-        assert_eq!(doc["stats"]["lod_error_m"], 0.5, "{doc}");
+        assert_eq!(doc["stats"]["lod_error_m"], 0.0, "{doc}");
         assert_eq!(paths(doc).len(), 63);
     }
+    let (offline_lod, remote_lod) = ask("8");
+    for doc in [&offline_lod, &remote_lod] {
+        assert_eq!(doc["stats"]["lod_error_m"], 8.0, "{doc}");
+    }
+    assert!(paths(&remote_lod).len() < 63);
+    assert_eq!(paths(&remote_lod).len(), paths(&offline_lod).len());
     assert_eq!(offline["stats"]["lod_error_m"], 0.0);
 
     // The text report is the offline one, and --out writes the server's WAV.

@@ -122,11 +122,25 @@ impl AcousticScene {
         Ok(Self::standing_for(simple, max_error_m))
     }
 
+    /// Whether [`Self::simplified_from`] at `max_error_m` could replace
+    /// anything: some object has a level of detail with an error below it
+    /// (fitting each object's planes on first use). Where not, the
+    /// simplified scene would be this one's geometry, copied and built
+    /// again: answer on this one instead.
+    pub fn simplifies_at(&self, max_error_m: f32) -> bool {
+        self.bvh
+            .instances()
+            .iter()
+            .any(|o| o.bvh().triangle_count() > 0 && max_error_m > o.lods().least_error())
+    }
+
     /// The acoustic scene of `simple`, standing for the scene it was
-    /// simplified from within `max_error_m`.
+    /// simplified from within `max_error_m`; where no node was replaced
+    /// (every triangle kept, in order), the exact scene it is, which says
+    /// so (bound 0).
     fn standing_for(simple: SimplifiedScene, max_error_m: f32) -> Self {
         let mut out = Self::new(&simple.scene);
-        out.lod = Some(Lod {
+        out.lod = (simple.polygons > 0).then_some(Lod {
             max_error_m,
             polygons: simple.polygons,
             origins: simple.origins,

@@ -209,12 +209,20 @@ mod tests {
         };
         let (status, _, exact) = server.send(ask(Value::Null)).await;
         assert_eq!(status, StatusCode::OK, "{exact}");
-        let (status, _, lod) = server.send(ask(json!(0.5))).await;
+        // At 0.5 m nothing is replaced (the panel's one node has an error
+        // of about 0.9 m, the room's 6.7 m): exact, and said so. At 8 m the
+        // room is one rectangle.
+        let (status, _, same) = server.send(ask(json!(0.5))).await;
+        assert_eq!(status, StatusCode::OK, "{same}");
+        let (status, _, lod) = server.send(ask(json!(8))).await;
         assert_eq!(status, StatusCode::OK, "{lod}");
-        let (exact, lod) = (&exact["responses"][0], &lod["responses"][0]);
+        let exact = &exact["responses"][0];
+        let (same, lod) = (&same["responses"][0], &lod["responses"][0]);
         assert_eq!(exact["stats"]["lod_error_m"], 0.0);
-        assert_eq!(lod["stats"]["lod_error_m"], 0.5);
-        assert_eq!(lod["paths"], exact["paths"]);
+        assert_eq!(same["stats"]["lod_error_m"], 0.0);
+        assert_eq!(same["paths"], exact["paths"]);
+        assert_eq!(lod["stats"]["lod_error_m"], 8.0);
+        assert_ne!(lod["paths"], exact["paths"]);
         for bad in [json!(-1), json!("far"), json!(null)] {
             let body = json!({
                 "sources": [{"position": [2, 3, 1.5]}],

@@ -183,6 +183,12 @@ impl LodTree {
         &self.planes[node]
     }
 
+    /// The smallest error of any node: a bound at or below it replaces
+    /// nothing.
+    pub fn least_error(&self) -> f32 {
+        self.least_error
+    }
+
     /// Whether these planes were fitted to `mesh` as it is now.
     pub fn fits(&self, mesh: &MeshBvh) -> bool {
         self.fitted == (mesh.wide().topology, mesh.wide().pose)
