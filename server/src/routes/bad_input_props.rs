@@ -306,6 +306,52 @@ async fn every_seed_is_accepted() {
     }
 }
 
+/// Ids and names no scene or object has, or may have, in every place a
+/// route takes one: a 4xx problem each (404 for what does not exist), never
+/// a 5xx, and the scene unchanged.
+#[tokio::test]
+async fn bad_ids_and_names_in_paths_and_queries_are_4xx() {
+    let server = small_server().await;
+    let before = served(&server);
+    let ids = [
+        "nope",
+        "%00",
+        "..%2F..%2Fetc",
+        "%E2%80%AE",
+        "a%20b",
+        "%FF",
+        &"x".repeat(5000),
+    ];
+    for id in ids {
+        // "nope" is a free id an upload may take; the others are not ids.
+        let upload = (id != "nope").then(|| post_json(&format!("/v1/scenes?id={id}"), BOX_DOC));
+        let requests = upload.into_iter().chain([
+            get(&format!("/v1/scenes/{id}")),
+            delete(&format!("/v1/scenes/{id}")),
+            post_json(&format!("/v1/scenes/{id}/rays"), r#"{"rays": []}"#),
+            patch_json(
+                &format!("/v1/scenes/box/objects/{id}"),
+                r#"{"translation": [0, 0, 0]}"#,
+            ),
+            patch_json(
+                &format!("/v1/scenes/{id}/materials"),
+                r#"{"materials": {}}"#,
+            ),
+        ]);
+        for request in requests {
+            let what = format!("{} {}", request.method(), request.uri());
+            let (status, content_type, bytes) = server.send_raw(request).await;
+            assert!(
+                status.is_client_error(),
+                "{what}: {status} {}",
+                String::from_utf8_lossy(&bytes)
+            );
+            assert_eq!(content_type, "application/problem+json", "{what}");
+        }
+    }
+    assert!(served(&server) == before);
+}
+
 /// The shoebox with a panel, under limits that keep every case short.
 async fn small_server() -> TestServer {
     let server = TestServer::with(|c| {
