@@ -82,9 +82,6 @@ impl LodCache {
         live: &LiveScene,
         bound: f32,
     ) -> Result<Option<Arc<AcousticScene>>, ApiError> {
-        if !live.acoustic.simplifies_at(bound) {
-            return Ok(None);
-        }
         let key = (live.acoustic.state(), bound.to_bits());
         let earlier = {
             let mut kept = self.lock();
@@ -100,12 +97,17 @@ impl LodCache {
         };
         let scene = match earlier.and_then(|k| moved(&k, &live.scene)) {
             Some(scene) => scene,
-            None => {
-                self.made.fetch_add(1, Ordering::Relaxed);
-                live.acoustic
-                    .simplified_from(&live.scene, bound)
-                    .map_err(ApiError::from_engine)?
-            }
+            None => match live
+                .acoustic
+                .simplified_from(&live.scene, bound)
+                .map_err(ApiError::from_engine)?
+            {
+                Some(scene) => {
+                    self.made.fetch_add(1, Ordering::Relaxed);
+                    scene
+                }
+                None => return Ok(None),
+            },
         };
         let scene = Arc::new(scene);
         let triangles = scene.bvh().triangle_count();
@@ -226,13 +228,15 @@ mod tests {
         server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
         let entry = server.state.registry().get("box").expect("the scene");
         let cache = server.state.lod_cache();
-        // The panel's one node has an error of about 0.9 m, the room's 6.7.
+        // The panel's one node has an error of about 0.9 m, the room's 6.7;
+        // at 1 m only the panel is under the bound, and it is flat.
+        for bound in [0.5, 1.0] {
+            let got = cache.get("box", &entry.read(), bound).expect("answered");
+            assert!(got.is_none(), "{bound}");
+        }
+        assert_eq!(cache.made(), 0);
         assert!(cache
-            .get("box", &entry.read(), 0.5)
-            .expect("answered")
-            .is_none());
-        assert!(cache
-            .get("box", &entry.read(), 1.0)
+            .get("box", &entry.read(), 7.5)
             .expect("answered")
             .is_some());
         assert_eq!(cache.made(), 1);
@@ -290,14 +294,15 @@ mod tests {
     async fn at_most_keep_are_kept_the_least_recently_used_dropped() {
         let server = TestServer::new();
         server.send(post_json("/v1/scenes?id=box", BOX_DOC)).await;
-        let first = simplified(&server, "box", 1.0);
+        // Bounds past the room's node (error about 6.7 m).
+        let first = simplified(&server, "box", 7.0);
         for k in 0..super::KEEP {
-            simplified(&server, "box", 2.0 + k as f32);
+            simplified(&server, "box", 8.0 + k as f32);
         }
-        assert!(!Arc::ptr_eq(&first, &simplified(&server, "box", 1.0)));
+        assert!(!Arc::ptr_eq(&first, &simplified(&server, "box", 7.0)));
         // Used again, the oldest is kept over one made before it.
-        let again = simplified(&server, "box", 3.0);
-        simplified(&server, "box", 9.0);
-        assert!(Arc::ptr_eq(&again, &simplified(&server, "box", 3.0)));
+        let again = simplified(&server, "box", 9.0);
+        simplified(&server, "box", 20.0);
+        assert!(Arc::ptr_eq(&again, &simplified(&server, "box", 9.0)));
     }
 }

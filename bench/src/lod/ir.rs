@@ -58,10 +58,11 @@ pub fn runs(
     }];
     for &bound in bounds {
         let start = Instant::now();
-        let simple = geometries[0]
-            .scene
-            .simplified_from(scene, bound)
-            .map_err(|e| e.to_string())?;
+        let simplified = geometries[0].scene.simplified_from(scene, bound);
+        let Some(simple) = simplified.map_err(|e| e.to_string())? else {
+            eprintln!("{name} at {bound} m: nothing replaced, skipped");
+            continue;
+        };
         let triangles = simple.bvh().triangle_count();
         let polygons = simple.lod().map_or(0, |l| l.polygons);
         geometries.push(Geometry {

@@ -107,27 +107,29 @@ impl AcousticScene {
     /// already holds: no tree of the exact scene is built again, and each
     /// object's levels of detail are fitted once for every bound (see
     /// [`simplify_scene_on`]). What a service holding the exact scene
-    /// does. Refused on a scene that is itself simplified.
-    pub fn simplified_from(&self, scene: &Scene, max_error_m: f32) -> Result<Self> {
+    /// does. `None` where the bound replaces nothing (0, below every
+    /// level of detail's error, or only flat nodes under it): the result
+    /// would be this scene's geometry, copied and built again, so this
+    /// scene answers as it is. Refused on a scene that is itself
+    /// simplified.
+    pub fn simplified_from(&self, scene: &Scene, max_error_m: f32) -> Result<Option<Self>> {
         check_bound(max_error_m)?;
         if self.lod.is_some() {
             return Err(Error::InvalidScene(
                 "a simplified scene is not simplified again".into(),
             ));
         }
-        if max_error_m == 0.0 {
-            return Ok(self.clone());
+        if !self.simplifies_at(max_error_m) {
+            return Ok(None);
         }
         let simple = simplify_scene_on(scene, &self.bvh, max_error_m)?;
-        Ok(Self::standing_for(simple, max_error_m))
+        Ok((simple.polygons > 0).then(|| Self::standing_for(simple, max_error_m)))
     }
 
-    /// Whether [`Self::simplified_from`] at `max_error_m` could replace
-    /// anything: some object has a level of detail with an error below it
-    /// (fitting each object's planes on first use). Where not, the
-    /// simplified scene would be this one's geometry, copied and built
-    /// again: answer on this one instead.
-    pub fn simplifies_at(&self, max_error_m: f32) -> bool {
+    /// Whether a cut at `max_error_m` could replace anything: some object
+    /// has a level of detail with an error below it (fitting each object's
+    /// planes on first use).
+    fn simplifies_at(&self, max_error_m: f32) -> bool {
         self.bvh
             .instances()
             .iter()
