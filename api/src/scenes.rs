@@ -28,6 +28,10 @@ pub struct ObjectSummary {
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
 pub struct SceneSummary {
     pub id: String,
+    /// Changes since the upload (one per new transform, new vertices or
+    /// material edit), counted on across restarts, so a later state never
+    /// has an earlier state's revision. Answers name the revision they
+    /// were computed on.
     pub revision: u64,
     pub bundled: bool,
     pub created_unix_ms: u64,
