@@ -95,6 +95,12 @@ impl IrRequest {
                 )));
             }
         }
+        // The engine's own checks before the memory bound, which is only
+        // meaningful for options it takes (a tail of 1e30 s is refused as
+        // such, not as a memory need).
+        self.options
+            .trace_options()
+            .map_err(ApiError::from_engine)?;
         let channels: u64 = match self.options.channels {
             Channels::Mono => 1,
             Channels::Binaural => 2,
@@ -121,9 +127,6 @@ impl IrRequest {
                 self.options.sample_rate, limits.max_ir_mib
             )));
         }
-        self.options
-            .trace_options()
-            .map_err(ApiError::from_engine)?;
         Ok(())
     }
 }

@@ -310,6 +310,13 @@ mod tests {
                 format!(r#"{{"sources": {s}, "listeners": {s}, "tail": {{"max_length_s": 0}}}}"#),
                 "tail.max_length_s",
             ),
+            // Refused as the length it is, before any memory bound of it.
+            (
+                format!(
+                    r#"{{"sources": {s}, "listeners": {s}, "tail": {{"max_length_s": 1e30}}}}"#
+                ),
+                "tail.max_length_s",
+            ),
             (
                 format!(
                     r#"{{"sources": {s}, "listeners": [{{"position": [1, 1, 1]}}, {{"position": [1, 2, 1]}}, {{"position": [1, 3, 1]}}]}}"#
