@@ -303,7 +303,7 @@ impl PartialSchema for ImpulseResponseRequest {
                 ObjectBuilder::new()
                     .schema_type(Type::Number)
                     .description(Some(
-                        "Levels of detail: each object is simplified, every part of its tree whose surface lies within this many metres of a plane becoming one polygon, and the request is answered on that (0: exact geometry). Features smaller than the bound cost no frusta; answers report the bound in stats.lod_error_m and name the original triangle each polygon stands for. A scene's simplification at a bound is kept for the next request (up to a few per server) and moved with its objects",
+                        "Levels of detail: each object is simplified, every part of its tree whose surface lies within this many metres of a plane becoming one polygon, and the request is answered on that (0: exact geometry). Features smaller than the bound cost no frusta; answers report the bound in stats.lod_error_m (0 where it replaced nothing) and name the original triangle each polygon stands for. A scene's simplification at a bound is kept for the next request (up to a few per server) and moved with its objects",
                     ))
                     .default(Some(0.0.into()))
                     .minimum(Some(0.0)),

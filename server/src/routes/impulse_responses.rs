@@ -188,9 +188,9 @@ mod tests {
     }
 
     /// With `lod_error_m` the answer is computed on the scene simplified
-    /// within it and says so; the box's walls and panel are flat, so they
-    /// stay as they are and the paths are the exact ones. A bound that is
-    /// not a distance of at least 0 is a 422 naming it.
+    /// within it and says so, or on the exact scene, saying 0, where the
+    /// bound replaces nothing. A bound that is not a distance of at least
+    /// 0 is a 422 naming it.
     #[tokio::test]
     async fn levels_of_detail_are_reported_and_bad_bounds_refused() {
         let server = TestServer::new();
