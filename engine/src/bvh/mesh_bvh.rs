@@ -11,7 +11,7 @@ use super::ray_queries::{self, LeafTriangles, Tree8};
 use super::traverse::ray8::avx_available;
 use super::wide::{Bvh4, Bvh8};
 use super::{BuildOptions, Bvh, Node};
-use crate::geometry::{trace_batch, Aabb, Ray, TriangleHit, TriangleMesh};
+use crate::geometry::{trace_batch, Aabb, Ray, TriangleMesh};
 use crate::{Error, Result};
 
 /// A ray's nearest hit on a mesh.
@@ -199,12 +199,6 @@ impl MeshBvh {
     #[inline]
     pub fn closest_triangle(&self, ray: &Ray) -> Option<(f32, u32)> {
         ray_queries::closest_slot(self, ray).map(|(t, slot)| (t, self.prim_id(slot)))
-    }
-
-    /// The hit `h` on the triangle in leaf slot `slot`.
-    #[inline]
-    pub(crate) fn mesh_hit(&self, slot: u32, h: TriangleHit) -> MeshHit {
-        ray_queries::mesh_hit(self, slot, h)
     }
 
     /// Whether anything lies on the ray within its range (occlusion).

@@ -14,9 +14,7 @@
 //! Node tests are written per query kind, as in Embree's node intersectors,
 //! so each kind keeps its SIMD form: [`RayTest`] (the robust slab test),
 //! [`FrustumTest`] (half-spaces with a depth key) and [`OverlapTest`]
-//! (a box, for points, proximity and broad phases). Packets of rays
-//! through one window walk with [`WindowTest`], which hands each box the
-//! rectangle of rays that can meet it.
+//! (a box, for points, proximity and broad phases).
 
 mod binary;
 pub mod front;
@@ -26,7 +24,6 @@ pub mod pair;
 mod ray;
 pub(crate) mod ray8;
 mod wide;
-mod window;
 
 use std::ops::ControlFlow;
 
@@ -37,7 +34,6 @@ pub use overlap::OverlapTest;
 pub use ray::RayTest;
 pub(crate) use wide::prefetch;
 pub use wide::{walk, walk_pruned, Slot, WideTree};
-pub use window::{Projection, WindowRect, WindowTest, WindowVisitor};
 
 use super::wide::Boxes4;
 use crate::geometry::Aabb;

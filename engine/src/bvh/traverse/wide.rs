@@ -6,22 +6,12 @@
 use std::mem::MaybeUninit;
 
 use super::{Flow, NodeTest, STACK_SIZE};
-use crate::bvh::wide::{Boxes4, Bvh4, Node4};
+use crate::bvh::wide::{Boxes4, Bvh4};
 
 /// Stack entries name an inner node by its index and a leaf by this bit
 /// with its node's index and slot, so leaves are visited in key order with
 /// the rest.
 pub(super) const LEAF_REF: u32 = 1 << 31;
-
-/// The stack entry of `slot` of `node` (not empty) in a plain tree.
-#[inline(always)]
-pub(super) fn child_ref(n: &Node4, node: usize, slot: usize) -> u32 {
-    if n.count[slot] != 0 {
-        LEAF_REF | (node as u32) << 2 | slot as u32
-    } else {
-        n.child[slot]
-    }
-}
 
 /// What a slot of a wide node holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
