@@ -1,6 +1,6 @@
-//! Collision queries stop at their deadline: every kind of test fails with
-//! the deadline error instead of running on, and the same query without a
-//! deadline finds its contacts.
+//! Collision queries stop at their deadline or when cancelled: every kind
+//! of test fails with the deadline (or cancellation) error instead of
+//! running on, and the same query without either finds its contacts.
 
 mod common;
 
@@ -12,7 +12,7 @@ use frusta_engine::collision::continuous::EndPose;
 use frusta_engine::collision::{CollisionQuery, CollisionTest};
 use frusta_engine::geometry::{shapes, RigidTransform};
 use frusta_engine::scene::{Material, Scene};
-use frusta_engine::Error;
+use frusta_engine::{Cancel, Error};
 use glam::{Quat, Vec3};
 
 /// Two dense balls through each other: thousands of pairs of leaves.
@@ -47,12 +47,21 @@ fn every_kind_of_query_stops_at_a_passed_deadline() {
                 selves: selves.clone(),
             };
             let ends = [(1, EndPose::Moved(&moved))];
-            let late = query.run_during(&world, &ends, Some(Instant::now()));
+            let late = query.run_during(&world, &ends, Some(Instant::now()), None);
             assert!(
                 matches!(late, Err(Error::DeadlineExceeded { .. })),
                 "{test:?} {pairs:?} {selves:?}: {late:?}"
             );
-            let found = query.run_during(&world, &ends, None).unwrap();
+            // A client that left: cancelled, with no deadline at all.
+            let cancel = Cancel::new();
+            cancel.cancel();
+            for left in [
+                query.run_during(&world, &ends, None, Some(&cancel)),
+                query.run(&world, None, Some(&cancel)),
+            ] {
+                assert_eq!(left, Err(Error::Cancelled), "{test:?} {pairs:?} {selves:?}");
+            }
+            let found = query.run_during(&world, &ends, None, None).unwrap();
             // The balls meet; a ball alone does not meet itself.
             assert_eq!(!found.is_empty(), !pairs.is_empty(), "{test:?}");
         }

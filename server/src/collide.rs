@@ -10,6 +10,7 @@ use frusta_api::collisions::{CollisionKind, CollisionRequest, CollisionResponse}
 use frusta_api::objects::{EditReport, ObjectMove};
 use frusta_engine::collision::continuous::EndPose;
 use frusta_engine::collision::{CollisionQuery, CollisionTest, Found};
+use frusta_engine::Cancel;
 
 use crate::config::Limits;
 use crate::error::ApiError;
@@ -127,25 +128,29 @@ fn answer(
 /// in the same step (a continuous query sweeps from before them to after).
 /// One report per edit. Blocking.
 ///
-/// The compute limit bounds a query on the scene as it is and a
-/// continuous query, which runs before the edits are stored: past it,
-/// nothing is stored. A discrete or proximity query with edits runs after
-/// they are stored and is not cut off, so an answer never reports an
-/// error for edits that were kept (such a query costs one pair walk).
+/// `deadline` (the compute limit of `limits` from when the request's work
+/// began) and `cancel` (its client left) stop a query on the scene as it
+/// is and a continuous query, which runs before the edits are stored:
+/// stopped, it stores nothing. A discrete or proximity query with edits
+/// runs after they are stored and is not stopped, so an answer never
+/// reports an error for edits that were kept (such a query costs one pair
+/// walk).
 pub fn run(
     registry: &Registry,
     entry: &SceneEntry,
     plan: &Plan,
     edits: &[(usize, ObjectEdit)],
+    deadline: Instant,
+    cancel: Option<&Cancel>,
     limits: &Limits,
 ) -> Result<(Vec<EditReport>, CollisionResponse), ApiError> {
-    let engine = ApiError::from_engine;
-    let deadline = Some(Instant::now() + limits.max_compute());
+    let engine = |e| ApiError::from_engine_within(e, limits);
+    let deadline = Some(deadline);
     if edits.is_empty() {
         let live = entry.read();
         let found = plan
             .query
-            .run(live.acoustic.bvh(), deadline)
+            .run(live.acoustic.bvh(), deadline, cancel)
             .map_err(engine)?;
         return Ok((Vec::new(), answer(entry, &live, plan, found)));
     }
@@ -160,7 +165,7 @@ pub fn run(
                 .then(|| {
                     let ends = ends(before, prepared);
                     plan.query
-                        .run_during(before.acoustic.bvh(), &ends, deadline)
+                        .run_during(before.acoustic.bvh(), &ends, deadline, cancel)
                 })
                 .transpose()
                 .map_err(engine)
@@ -168,7 +173,7 @@ pub fn run(
         |after, during| {
             let found = match during {
                 Some(found) => Ok(found),
-                None => plan.query.run(after.acoustic.bvh(), None),
+                None => plan.query.run(after.acoustic.bvh(), None, None),
             };
             found.map(|found| answer(entry, after, plan, found))
         },

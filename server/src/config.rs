@@ -4,7 +4,7 @@
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use clap::Parser;
 
@@ -118,8 +118,10 @@ impl Limits {
         self.max_upload_mib.saturating_mul(1024 * 1024)
     }
 
-    pub fn max_compute(&self) -> Duration {
-        Duration::from_millis(self.max_compute_ms)
+    /// When work starting now must end: one deadline for all the work of
+    /// a request or a stream update, so their parts share the limit.
+    pub fn compute_deadline(&self) -> Instant {
+        Instant::now() + Duration::from_millis(self.max_compute_ms)
     }
 
     pub fn header_timeout(&self) -> Duration {

@@ -8,6 +8,8 @@ use axum::extract::{FromRequest, Request};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
+
+use crate::config::Limits;
 pub use frusta_api::Problem;
 
 /// Everything a request can fail with.
@@ -68,6 +70,18 @@ pub enum ApiError {
 }
 
 impl ApiError {
+    /// [`from_engine`](Self::from_engine) for work under the server's
+    /// compute limit: the error names the limit, not what was left of it
+    /// when this part of the work began.
+    pub fn from_engine_within(e: frusta_engine::Error, limits: &Limits) -> Self {
+        match Self::from_engine(e) {
+            Self::ComputeLimit { .. } => Self::ComputeLimit {
+                limit_ms: limits.max_compute_ms,
+            },
+            other => other,
+        }
+    }
+
     /// Maps an engine error by its cause: input to 4xx naming the field,
     /// limits to 422, the deadline to the compute limit, anything else to
     /// 500 with a logged error id.

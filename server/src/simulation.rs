@@ -173,11 +173,13 @@ impl Drop for CancelOnDrop {
     }
 }
 
-/// Simulates under the scene's read lock, within the compute limit, on the
-/// scene simplified within the request's `lod_error_m` where it has one
-/// (taken from `lods`, or moved or made there; making it, a walk of the
-/// scene's trees, their planes' fit on first use and a build of the
-/// result, is not bounded by the compute limit). With a
+/// Simulates under the scene's read lock, stopping at `deadline` (the
+/// compute limit of `limits` from when the request's work began) or on
+/// `cancel`, on the scene simplified within the request's `lod_error_m`
+/// where it has one (taken from `lods`, or moved or made there; making
+/// it, a walk of the scene's trees, their planes' fit on first use and a
+/// build of the result, is not interrupted, but its time counts: the
+/// trace gets what is left). With a
 /// `cache` (a stream), the frusta traced from unchanged sources are kept
 /// for moving listeners; the engine drops them when the geometry,
 /// materials or options change. Without one (a one-off request), listeners
@@ -186,6 +188,7 @@ pub fn run(
     entry: &SceneEntry,
     request: &IrRequest,
     cache: Option<&mut BeamCache>,
+    deadline: Instant,
     cancel: Option<&Cancel>,
     limits: &Limits,
     lods: &LodCache,
@@ -195,7 +198,6 @@ pub fn run(
         0.0 => None,
         bound => lods.get(&entry.id, &live, bound)?,
     };
-    let deadline = Instant::now() + limits.max_compute();
     let (scene, sources, listeners, options) = (
         simplified.as_deref().unwrap_or(&live.acoustic),
         &request.sources,
@@ -214,7 +216,7 @@ pub fn run(
         ),
         None => simulate_until(scene, sources, listeners, options, deadline, cancel),
     }
-    .map_err(ApiError::from_engine)?;
+    .map_err(|e| ApiError::from_engine_within(e, limits))?;
     Ok((live.acoustic.revision(), responses))
 }
 

@@ -139,12 +139,12 @@ pub fn run(args: &CollideArgs) -> Result<(), Box<dyn Error>> {
     let found = if matches!(query.test, CollisionTest::Continuous { .. }) {
         let ends: Vec<(u32, EndPose)> =
             moved.iter().map(|(o, t)| (*o, EndPose::Moved(t))).collect();
-        query.run_during(&world, &ends, None)?
+        query.run_during(&world, &ends, None, None)?
     } else {
         for (o, t) in &moved {
             world.set_transform(*o as usize, *t)?;
         }
-        query.run(&world, None)?
+        query.run(&world, None, None)?
     };
     let answer = CollisionResponse::new(0, request.kind, found, &names, args.max_contacts);
     print(&answer, args.json)

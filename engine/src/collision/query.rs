@@ -13,7 +13,7 @@ use super::continuous::{
 use super::discrete::{object_contacts_at, proximity_until, self_contacts_at};
 use super::Contact;
 use crate::bvh::SceneBvh;
-use crate::deadline::Deadline;
+use crate::deadline::{Cancel, Deadline};
 use crate::{Error, Result};
 
 /// The kind of test.
@@ -116,11 +116,20 @@ impl CollisionQuery {
 
     /// Runs the query in the world as it is (a continuous query with
     /// nothing moving finds what touches now, at time 0), failing with
-    /// [`Error::DeadlineExceeded`] once `deadline` has passed.
-    pub fn run(&self, world: &SceneBvh, deadline: Option<Instant>) -> Result<Vec<Found>> {
+    /// [`Error::DeadlineExceeded`] once `deadline` has passed and with
+    /// [`Error::Cancelled`] soon after `cancel` is cancelled.
+    pub fn run(
+        &self,
+        world: &SceneBvh,
+        deadline: Option<Instant>,
+        cancel: Option<&Cancel>,
+    ) -> Result<Vec<Found>> {
         match self.test {
-            CollisionTest::Continuous { .. } => self.run_during(world, &[], deadline),
-            _ => self.run_now(world, &Deadline::new(deadline, Instant::now())),
+            CollisionTest::Continuous { .. } => self.run_during(world, &[], deadline, cancel),
+            _ => self.run_now(
+                world,
+                &Deadline::new(deadline, Instant::now()).or_cancel(cancel),
+            ),
         }
     }
 
@@ -158,15 +167,16 @@ impl CollisionQuery {
 
     /// Runs a continuous query over the step from the world as it is to
     /// `ends` (objects not named there stay), earliest contact first; a
-    /// discrete or proximity query ignores `ends`. Fails with
-    /// [`Error::DeadlineExceeded`] once `deadline` has passed.
+    /// discrete or proximity query ignores `ends`. Fails as
+    /// [`run`](Self::run) does past `deadline` or on `cancel`.
     pub fn run_during(
         &self,
         world: &SceneBvh,
         ends: &[(u32, EndPose)],
         deadline: Option<Instant>,
+        cancel: Option<&Cancel>,
     ) -> Result<Vec<Found>> {
-        let stop = Deadline::new(deadline, Instant::now());
+        let stop = Deadline::new(deadline, Instant::now()).or_cancel(cancel);
         let CollisionTest::Continuous { tolerance } = self.test else {
             return self.run_now(world, &stop);
         };

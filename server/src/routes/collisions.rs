@@ -5,11 +5,13 @@
 use axum::extract::{Path, State};
 use axum::{Extension, Json};
 use frusta_api::collisions::{CollisionRequest, CollisionResponse};
+use frusta_engine::Cancel;
 
 use crate::app::AppState;
 use crate::auth::Caller;
 use crate::collide;
 use crate::error::{ApiError, JsonBody, Problem};
+use crate::simulation::CancelOnDrop;
 
 /// Which triangles touch, come within a distance, or meet during a
 /// motion. With `moves`, the objects are moved first (and the change
@@ -35,11 +37,23 @@ pub async fn query(
         caller.may_change(&entry.meta)?;
         state.compute()
     };
+    let cancel = Cancel::new();
+    let _cancel_on_drop = CancelOnDrop(cancel.clone());
     let job_state = state.clone();
     let (reports, response) = lane
         .run(move || {
             let limits = job_state.limits();
-            collide::run(job_state.registry(), &entry, &plan, &edits, limits)
+            let deadline = limits.compute_deadline();
+            let registry = job_state.registry();
+            collide::run(
+                registry,
+                &entry,
+                &plan,
+                &edits,
+                deadline,
+                Some(&cancel),
+                limits,
+            )
         })
         .await??;
     for r in &reports {
@@ -170,6 +184,49 @@ mod tests {
         assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{problem}");
         let (_, _, detail) = server.send(get("/v1/scenes/s")).await;
         assert_eq!(detail["revision"], 0, "{detail}");
+    }
+
+    /// A client that left (its request dropped, or its stream closed)
+    /// cancels a running query: it stops and stores none of its moves.
+    /// And a query stopped by a deadline that began before it (a stream's
+    /// collision query shares its update's limit with the simulation)
+    /// names the configured limit, not what was left of it.
+    #[tokio::test]
+    async fn a_cancelled_query_stores_nothing_and_limits_name_the_configured_one() {
+        use frusta_api::collisions::CollisionRequest;
+        use frusta_engine::Cancel;
+        use std::time::{Duration, Instant};
+
+        use crate::collide;
+        use crate::error::ApiError;
+
+        let server = server().await;
+        let state = &server.state;
+        let entry = state.registry().get("s").expect("uploaded");
+        let request: CollisionRequest =
+            serde_json::from_value(json!({"kind": "continuous", "pairs": [["probe", "panel"]],
+                   "moves": [{"object": "probe", "translation": [2, 0, 0]}]}))
+            .expect("a request");
+        let plan = collide::plan(&entry, &request).expect("plan");
+        let edits = collide::edits(&entry, &request.moves).expect("edits");
+        let (registry, limits) = (state.registry(), state.limits());
+        let cancel = Cancel::new();
+        cancel.cancel();
+        let later = Instant::now() + Duration::from_secs(3600);
+        let run = |deadline, cancel| {
+            collide::run(registry, &entry, &plan, &edits, deadline, cancel, limits)
+        };
+        let left = run(later, Some(&cancel));
+        assert!(matches!(left, Err(ApiError::Internal(_))), "{left:?}");
+        let past = run(Instant::now() - Duration::from_millis(5), None);
+        assert!(
+            matches!(past, Err(ApiError::ComputeLimit { limit_ms }) if limit_ms == limits.max_compute_ms),
+            "{past:?}"
+        );
+        let (_, _, detail) = server.send(get("/v1/scenes/s")).await;
+        assert_eq!(detail["revision"], 0, "{detail}");
+        let (reports, answer) = run(later, None).expect("runs");
+        assert_eq!((reports.len(), answer.revision), (1, 1));
     }
 
     #[tokio::test]

@@ -57,6 +57,7 @@ pub async fn create(
                 &entry,
                 &request,
                 None,
+                job.limits().compute_deadline(),
                 Some(&cancel),
                 job.limits(),
                 job.lod_cache(),

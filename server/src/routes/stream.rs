@@ -315,6 +315,8 @@ impl Stream {
             let job_state = state.clone();
             let job = move || {
                 let start = Instant::now();
+                // The collision query and the simulation share one limit.
+                let deadline = job_state.limits().compute_deadline();
                 let result = (|| {
                     let (objects, collisions) = match &collisions {
                         Some(plan) => {
@@ -323,6 +325,8 @@ impl Stream {
                                 &entry,
                                 plan,
                                 &pending.objects,
+                                deadline,
+                                Some(&cancel),
                                 job_state.limits(),
                             )?;
                             (objects, Some(found))
@@ -345,6 +349,7 @@ impl Stream {
                                 &entry,
                                 r,
                                 cache,
+                                deadline,
                                 Some(&cancel),
                                 job_state.limits(),
                                 job_state.lod_cache(),
