@@ -161,6 +161,35 @@ fn pillar_room() -> Scene {
     scene
 }
 
+/// The box with small boxes standing on its floor, their sides and tops
+/// split in 2 x 2 (a seat block's detail): triangles much smaller than a
+/// frustum's cells, and seen only in part.
+fn cluttered_box() -> Scene {
+    let mut scene = shoebox();
+    let boxes = [
+        (Vec3::new(3.0, 1.0, 0.0), Vec3::new(3.6, 1.5, 0.6)),
+        (Vec3::new(6.0, 4.0, 0.0), Vec3::new(6.5, 4.8, 0.45)),
+        (Vec3::new(5.0, 2.5, 0.0), Vec3::new(5.3, 2.8, 1.0)),
+        (Vec3::new(7.5, 1.0, 0.0), Vec3::new(8.2, 1.4, 0.3)),
+    ];
+    for (k, (min, max)) in boxes.into_iter().enumerate() {
+        let name = format!("box {k}");
+        let b = box_object(&name, min, max, 2);
+        // Its bottom would lie on the floor.
+        let kept: Vec<[u32; 3]> = (0..b.mesh.triangle_count())
+            .filter(|&t| {
+                b.mesh.face_normal(t).z.abs() < 0.5
+                    || b.mesh.positions()[b.mesh.triangles()[t][0] as usize].z > 0.0
+            })
+            .map(|t| b.mesh.triangles()[t])
+            .collect();
+        scene
+            .objects
+            .push(object(&name, b.mesh.positions().to_vec(), kept));
+    }
+    scene
+}
+
 /// The bundled two rooms with a door panel in the opening (x 5..5.2,
 /// y 1.5..2.5, z 0..2), halfway through the wall.
 fn two_rooms_with_door() -> Scene {
@@ -244,6 +273,15 @@ fn cases() -> Vec<Case> {
                 (Vec3::new(3.5, 2.3, 0.9), Vec3::new(6.0, 1.0, 2.2)),
             ],
             order: 4,
+        },
+        Case {
+            name: "cluttered box",
+            scene: cluttered_box(),
+            pairs: vec![
+                (Vec3::new(2.0, 3.5, 1.2), Vec3::new(7.3, 2.9, 1.7)),
+                (Vec3::new(8.6, 0.7, 2.3), Vec3::new(1.3, 4.6, 0.4)),
+            ],
+            order: 3,
         },
         Case {
             name: "pillar room",

@@ -67,11 +67,30 @@ impl NearestDepths {
     }
 }
 
+/// The cells of a frustum the triangles it meets touch
+/// ([`CellAssignment::Conservative`](super::tracer::CellAssignment)).
+#[derive(Default)]
+pub(super) struct Contacts {
+    /// `(cell, group, the triangle's nearest depth, its footprint)` per
+    /// cell a triangle touches.
+    pub touches: Vec<(u32, u32, f64, u32)>,
+    /// Each triangle's window bounds `[x0, y0, x1, y1]` (of the part in
+    /// front of the apex), widened by [`MARGIN`].
+    pub footprints: Vec<[f64; 4]>,
+}
+
+impl Contacts {
+    pub fn clear(&mut self) {
+        self.touches.clear();
+        self.footprints.clear();
+    }
+}
+
 /// What [`classify`] records a triangle into.
 pub(super) enum Target<'a> {
-    /// Cover depths per cell and `(cell, group, depth)` contacts
+    /// Cover depths per cell and the contacts
     /// ([`CellAssignment::Conservative`](super::tracer::CellAssignment)).
-    Cells(&'a mut NearestDepths, &'a mut Vec<(u32, u32, f64)>),
+    Cells(&'a mut NearestDepths, &'a mut Contacts),
     /// Nearest hit per sample ray: `(N+1)^2` cell corners, then `N^2` cell
     /// centres ([`CellAssignment::Sampled`](super::tracer::CellAssignment)).
     Samples(&'a mut NearestDepths),
@@ -170,6 +189,10 @@ pub(super) fn classify(
     };
     let depth = w.iter().map(|q| q.z).fold(f64::INFINITY, f64::min).max(0.0);
     let can_cover = wholly_valid && !clipped;
+    let footprint = contacts.footprints.len() as u32;
+    contacts
+        .footprints
+        .push([lo.x - MARGIN, lo.y - MARGIN, hi.x + MARGIN, hi.y + MARGIN]);
     for i in i0..=i1 {
         for j in j0..=j1 {
             let c = [
@@ -192,7 +215,7 @@ pub(super) fn classify(
                 continue;
             }
             let cell = (i * n + j) as u32;
-            contacts.push((cell, group, depth));
+            contacts.touches.push((cell, group, depth, footprint));
             if can_cover && inside_all {
                 // Depth of the plane along each corner direction; the
                 // farthest bounds the plane over the whole cell.

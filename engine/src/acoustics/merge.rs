@@ -70,6 +70,67 @@ impl CellSets {
     }
 }
 
+/// Per plane group, the window bounds `[x0, y0, x1, y1]` of the triangles
+/// of it a frustum sees: a secondary frustum needs no more of its cells
+/// than that, since every path through it meets one of them.
+#[derive(Default)]
+pub(crate) struct GroupWindows {
+    /// Per group id, its index in `windows` (`u32::MAX`: none yet).
+    slot_of: Vec<u32>,
+    windows: Vec<(u32, [f64; 4])>,
+}
+
+impl GroupWindows {
+    pub(crate) fn clear(&mut self) {
+        for &(group, _) in &self.windows {
+            self.slot_of[group as usize] = u32::MAX;
+        }
+        self.windows.clear();
+    }
+
+    /// Grows `group`'s bounds to hold `b`.
+    pub(crate) fn widen(&mut self, group: u32, b: [f64; 4]) {
+        let g = group as usize;
+        if g >= self.slot_of.len() {
+            self.slot_of.resize(g + 1, u32::MAX);
+        }
+        match self.slot_of[g] {
+            u32::MAX => {
+                self.slot_of[g] = self.windows.len() as u32;
+                self.windows.push((group, b));
+            }
+            at => {
+                let w = &mut self.windows[at as usize].1;
+                *w = [
+                    w[0].min(b[0]),
+                    w[1].min(b[1]),
+                    w[2].max(b[2]),
+                    w[3].max(b[3]),
+                ];
+            }
+        }
+    }
+
+    /// Window rectangle `[x0, x1, y0, y1]` cut to `group`'s bounds, if it
+    /// has any and they meet it.
+    pub(crate) fn cut(&self, group: u32, [x0, x1, y0, y1]: [f64; 4]) -> [f64; 4] {
+        let Some(&at) = self
+            .slot_of
+            .get(group as usize)
+            .filter(|&&at| at != u32::MAX)
+        else {
+            return [x0, x1, y0, y1];
+        };
+        let w = self.windows[at as usize].1;
+        let cut = [x0.max(w[0]), x1.min(w[2]), y0.max(w[1]), y1.min(w[3])];
+        if cut[0] < cut[1] && cut[2] < cut[3] {
+            cut
+        } else {
+            [x0, x1, y0, y1]
+        }
+    }
+}
+
 fn split(rows: &[u64; 64], rect: [u32; 4], out: &mut Vec<[u32; 4]>) {
     let Some([i0, i1, j0, j1]) = bounds(rows, rect) else {
         return;

@@ -19,10 +19,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::DVec3;
 
 use super::beams::Beams;
-use super::classify::{classify, NearestDepths, Target};
+use super::classify::{classify, Contacts, NearestDepths, Target};
 use super::cull::{box_cull, for_each_leaf};
 use super::frustum::Frustum;
-use super::merge::{merge_cells, CellSets};
+use super::merge::{merge_cells, CellSets, GroupWindows};
 use super::path::Event;
 use super::sample_rays;
 use super::surfaces::{Surfaces, NO_GROUP};
@@ -116,8 +116,10 @@ struct Pending {
 struct Scratch {
     /// Per cell, the nearest depth at which a triangle covers it wholly.
     cover: NearestDepths,
-    /// `(cell, group, nearest depth)` of every cell-triangle contact.
-    contacts: Vec<(u32, u32, f64)>,
+    /// Every cell-triangle contact, and the triangles' window bounds.
+    contacts: Contacts,
+    /// The window bounds of each group's triangles that are seen.
+    windows: GroupWindows,
     /// `(group, cell)` pairs that survive occlusion.
     touched: Vec<(u32, u32)>,
     cell_sets: CellSets,
@@ -381,6 +383,7 @@ fn expand(
     let n = options.sampling.clamp(1, 64) as usize;
     let last_group = (p.history != u32::MAX).then(|| scratch.history[p.history as usize].1.group());
     scratch.touched.clear();
+    scratch.windows.clear();
     let f = &p.frustum;
     touch_cells(input, f, last_group, n, options.cells, scratch, stats);
     scratch.cell_sets.sort_dedup(&mut scratch.touched, n * n);
@@ -434,13 +437,16 @@ fn touch_cells(
             // A contact counts unless a covering triangle lies wholly in
             // front of it over the whole cell.
             let cover = &scratch.cover.depth;
-            scratch.touched.extend(
-                scratch
-                    .contacts
-                    .iter()
-                    .filter(|&&(cell, _, depth)| depth <= cover[cell as usize] * (1.0 + 1e-9))
-                    .map(|&(cell, group, _)| (group, cell)),
-            );
+            let Contacts {
+                touches,
+                footprints,
+            } = &scratch.contacts;
+            for &(cell, group, depth, footprint) in touches {
+                if depth <= cover[cell as usize] * (1.0 + 1e-9) {
+                    scratch.touched.push((group, cell));
+                    scratch.windows.widen(group, footprints[footprint as usize]);
+                }
+            }
         }
     }
 }
@@ -545,12 +551,14 @@ fn spawn(
     rects.clear();
     merge_cells(cells, n, &mut rects);
     for &[i0, i1, j0, j1] in &rects {
-        let Some(sub) = p.frustum.sub(
+        let rect = [
             i0 as f64 * step,
             (i1 + 1) as f64 * step,
             j0 as f64 * step,
             (j1 + 1) as f64 * step,
-        ) else {
+        ];
+        let [x0, x1, y0, y1] = scratch.windows.cut(group, rect);
+        let Some(sub) = p.frustum.sub(x0, x1, y0, y1) else {
             continue;
         };
         let reflect = std::array::from_fn(|b| p.energy[b] * (1.0 - material.absorption[b]));
