@@ -441,10 +441,16 @@ fn touch_cells(
                 touches,
                 footprints,
             } = &scratch.contacts;
+            // A triangle's contacts are side by side: its footprint is
+            // taken once.
+            let mut taken = u32::MAX;
             for &(cell, group, depth, footprint) in touches {
                 if depth <= cover[cell as usize] * (1.0 + 1e-9) {
                     scratch.touched.push((group, cell));
-                    scratch.windows.widen(group, footprints[footprint as usize]);
+                    if footprint != taken {
+                        scratch.windows.widen(group, footprints[footprint as usize]);
+                        taken = footprint;
+                    }
                 }
             }
         }
