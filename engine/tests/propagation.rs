@@ -257,8 +257,8 @@ mod cached {
         let scene = AcousticScene::new(&bundled("l-room"));
         let listener = [Vec3::new(11.0, 5.0, 1.2)];
         let options = SimulationOptions {
-            max_order: 3,
-            sampling: 4,
+            max_order: 4,
+            sampling: 8,
             cells: CellAssignment::Conservative,
             sample_rate: 8_000,
             tail: Tail::None,
@@ -303,7 +303,9 @@ mod cached {
             total += fresh.paths.len();
         }
         println!("moving source: {found} of {total} paths");
-        assert!(found as f64 >= 0.95 * total as f64, "{found} of {total}");
+        // Frusta kept for a moving source are not cut to their triangles
+        // (`TraceInput::cut_windows`): cut, they found 600 of 604.
+        assert_eq!(found, total, "{found} of {total}");
         // Asked again from where it last reused the beams, the source has
         // stopped: it is traced there, then answered from that trace.
         let here = [Vec3::new(1.0 + 0.04 * 8.0, 9.0, 1.5)];

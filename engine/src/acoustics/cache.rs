@@ -7,7 +7,7 @@ use glam::DVec3;
 
 use super::beams::Beams;
 use super::tail::{record_tail, trace_tail, TailInput, TailOptions, TailRecord, TracedTail};
-use super::tracer::{trace_keeping, TraceOptions};
+use super::tracer::{trace_keeping, TraceInput, TraceOptions};
 use super::{AcousticScene, FoundPaths};
 use crate::deadline::Deadline;
 use crate::Result;
@@ -42,6 +42,9 @@ struct Entry {
     /// asked again from there, it has stopped, and is traced where it is.
     reused_by: Option<[u64; 3]>,
     beams: Beams,
+    /// Traced with windows cut to their triangles
+    /// ([`TraceInput::cut_windows`]): for this position only.
+    cut: bool,
 }
 
 /// What a tail's walk depends on beyond the scene state and the trace
@@ -282,6 +285,7 @@ impl BeamCache {
                     .entries
                     .iter()
                     .enumerate()
+                    .filter(|(_, e)| !e.cut)
                     .map(|(i, e)| (i, e.at.distance(source)))
                     .filter(|&(_, d)| d <= reach)
                     .min_by(|a, b| a.1.total_cmp(&b.1))
@@ -318,7 +322,11 @@ impl BeamCache {
                 (proposals, stats, Some(moved.length()))
             }
             None => {
-                let input = scene.trace_input(source);
+                let cut = reach == 0.0;
+                let input = TraceInput {
+                    cut_windows: cut,
+                    ..scene.trace_input(source)
+                };
                 let (proposals, stats, beams) =
                     trace_keeping(&input, listeners, options, deadline, self.max_beams)?;
                 if let Some(beams) = beams {
@@ -326,6 +334,7 @@ impl BeamCache {
                         at: source,
                         reused_by: None,
                         beams,
+                        cut,
                     });
                 }
                 (proposals, stats, None)

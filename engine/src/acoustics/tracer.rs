@@ -137,6 +137,12 @@ pub(crate) struct TraceInput<'a> {
     pub surfaces: &'a Surfaces,
     pub materials: &'a [Material],
     pub source: DVec3,
+    /// Whether conservative secondary frusta are cut to the window bounds
+    /// of the triangles they leave from ([`GroupWindows`]). Frusta kept
+    /// for a source that will move are not: a path from the moved source
+    /// may meet a triangle outside its bounds as seen from where the
+    /// frusta were traced.
+    pub cut_windows: bool,
 }
 
 /// What the tracer does with each frustum of order >= 1, the frusta that
@@ -563,7 +569,11 @@ fn spawn(
             j0 as f64 * step,
             (j1 + 1) as f64 * step,
         ];
-        let [x0, x1, y0, y1] = scratch.windows.cut(group, rect);
+        let [x0, x1, y0, y1] = if input.cut_windows {
+            scratch.windows.cut(group, rect)
+        } else {
+            rect
+        };
         let Some(sub) = p.frustum.sub(x0, x1, y0, y1) else {
             continue;
         };
