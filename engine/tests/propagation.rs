@@ -303,9 +303,11 @@ mod cached {
             total += fresh.paths.len();
         }
         println!("moving source: {found} of {total} paths");
-        // Frusta kept for a moving source are not cut to their triangles
-        // (`TraceInput::cut_windows`): cut, they found 600 of 604.
-        assert_eq!(found, total, "{found} of {total}");
+        // Paths that open only after a move wait for the next trace, so
+        // not every path is promised; on this walk the kept frusta find
+        // all 604. They are not cut to their triangles
+        // (`TraceInput::cut_windows`): cut, they found 600 (99.3%).
+        assert!(found as f64 >= 0.995 * total as f64, "{found} of {total}");
         // Asked again from where it last reused the beams, the source has
         // stopped: it is traced there, then answered from that trace.
         let here = [Vec3::new(1.0 + 0.04 * 8.0, 9.0, 1.5)];

@@ -129,8 +129,11 @@ impl BeamCache {
         }
         self.call += 1;
         self.sources = sources.iter().map(|&s| bits(s)).collect();
-        self.entries
-            .retain(|e| sources.iter().any(|&s| near(e.at, s, reach)));
+        // A cut trace serves its own position only.
+        self.entries.retain(|e| {
+            let reach = if e.cut { 0.0 } else { reach };
+            sources.iter().any(|&s| near(e.at, s, reach))
+        });
         self.tails.retain(|(_, record, _)| {
             record
                 .sources()

@@ -75,7 +75,7 @@ pub(super) struct Contacts {
     /// cell a triangle touches.
     pub touches: Vec<(u32, u32, f64, u32)>,
     /// Each triangle's window bounds `[x0, y0, x1, y1]` (of the part in
-    /// front of the apex), widened by [`MARGIN`].
+    /// front of the apex), widened by [`FOOTPRINT_SLACK`].
     pub footprints: Vec<[f64; 4]>,
 }
 
@@ -98,6 +98,12 @@ pub(super) enum Target<'a> {
 
 /// Window distance within which a point counts as on a line.
 const MARGIN: f64 = 1e-9;
+
+/// Window distance by which a triangle's footprint is widened before it
+/// bounds a secondary frustum: a path grazing the outer edge of a plane
+/// group meets it to within the rounding that validation accepts (f32
+/// corners), far above [`MARGIN`]; a millionth of the window costs nothing.
+const FOOTPRINT_SLACK: f64 = 1e-6;
 
 /// Classifies one triangle against the cells of frustum `f`: records a
 /// contact for every cell it touches and lowers the cover depth of every
@@ -190,9 +196,12 @@ pub(super) fn classify(
     let depth = w.iter().map(|q| q.z).fold(f64::INFINITY, f64::min).max(0.0);
     let can_cover = wholly_valid && !clipped;
     let footprint = contacts.footprints.len() as u32;
-    contacts
-        .footprints
-        .push([lo.x - MARGIN, lo.y - MARGIN, hi.x + MARGIN, hi.y + MARGIN]);
+    contacts.footprints.push([
+        lo.x - FOOTPRINT_SLACK,
+        lo.y - FOOTPRINT_SLACK,
+        hi.x + FOOTPRINT_SLACK,
+        hi.y + FOOTPRINT_SLACK,
+    ]);
     for i in i0..=i1 {
         for j in j0..=j1 {
             let c = [

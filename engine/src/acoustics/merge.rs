@@ -5,6 +5,9 @@
 //!
 //! The rectangles cover every given cell, so no path is lost; a rectangle
 //! may also cover cells that were not given, which only costs validation.
+//! Conservative tracing then cuts each rectangle to the window bounds of
+//! the group's triangles it saw ([`GroupWindows`]), which every path
+//! through the rectangle meets.
 //! Splitting quad-tree fashion until each rectangle is at least half full
 //! keeps both the number of frusta and the wasted area small.
 
@@ -181,6 +184,28 @@ mod tests {
         rects
             .iter()
             .any(|r| (r[0]..=r[1]).contains(&i) && (r[2]..=r[3]).contains(&j))
+    }
+
+    #[test]
+    fn group_windows_cut_rectangles_to_their_groups_bounds_and_reset() {
+        let mut w = GroupWindows::default();
+        let rect = [0.0, 0.5, 0.25, 0.75];
+        // No bounds for a group: the rectangle as it is.
+        assert_eq!(w.cut(7, rect), rect);
+        w.widen(7, [0.1, 0.3, 0.2, 0.4]);
+        w.widen(7, [0.15, 0.35, 0.3, 0.5]);
+        w.widen(2, [0.9, 0.9, 1.0, 1.0]);
+        assert_eq!(w.cut(7, rect), [0.1, 0.3, 0.3, 0.5]);
+        // Bounds apart from the rectangle (a group's own cells never give
+        // such) leave it whole: the safe side.
+        assert_eq!(w.cut(2, rect), rect);
+        // Partly outside: cut to the overlap.
+        w.widen(3, [0.4, 0.7, 0.9, 0.8]);
+        assert_eq!(w.cut(3, rect), [0.4, 0.5, 0.7, 0.75]);
+        w.clear();
+        assert_eq!(w.cut(7, rect), rect);
+        w.widen(7, [0.2, 0.3, 0.3, 0.4]);
+        assert_eq!(w.cut(7, rect), [0.2, 0.3, 0.3, 0.4]);
     }
 
     #[test]
