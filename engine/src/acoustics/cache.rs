@@ -42,9 +42,9 @@ struct Entry {
     /// asked again from there, it has stopped, and is traced where it is.
     reused_by: Option<[u64; 3]>,
     beams: Beams,
-    /// Traced with windows cut to their triangles
-    /// ([`TraceInput::cut_windows`]): for this position only.
-    cut: bool,
+    /// The reach they were traced for ([`TraceInput::apex_reach`]): they
+    /// serve no source farther away.
+    reach: f64,
 }
 
 /// What a tail's walk depends on beyond the scene state and the trace
@@ -129,9 +129,8 @@ impl BeamCache {
         }
         self.call += 1;
         self.sources = sources.iter().map(|&s| bits(s)).collect();
-        // A cut trace serves its own position only.
         self.entries.retain(|e| {
-            let reach = if e.cut { 0.0 } else { reach };
+            let reach = e.reach.min(reach);
             sources.iter().any(|&s| near(e.at, s, reach))
         });
         self.tails.retain(|(_, record, _)| {
@@ -288,9 +287,9 @@ impl BeamCache {
                     .entries
                     .iter()
                     .enumerate()
-                    .filter(|(_, e)| !e.cut)
-                    .map(|(i, e)| (i, e.at.distance(source)))
-                    .filter(|&(_, d)| d <= reach)
+                    .map(|(i, e)| (i, e.at.distance(source), e.reach))
+                    .filter(|&(_, d, traced)| d <= reach.min(traced))
+                    .map(|(i, d, _)| (i, d))
                     .min_by(|a, b| a.1.total_cmp(&b.1))
                     .map(|(i, _)| i);
                 match nearest {
@@ -325,9 +324,8 @@ impl BeamCache {
                 (proposals, stats, Some(moved.length()))
             }
             None => {
-                let cut = reach == 0.0;
                 let input = TraceInput {
-                    cut_windows: cut,
+                    apex_reach: reach,
                     ..scene.trace_input(source)
                 };
                 let (proposals, stats, beams) =
@@ -337,7 +335,7 @@ impl BeamCache {
                         at: source,
                         reused_by: None,
                         beams,
-                        cut,
+                        reach,
                     });
                 }
                 (proposals, stats, None)

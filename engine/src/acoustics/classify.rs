@@ -75,14 +75,39 @@ pub(super) struct Contacts {
     /// cell a triangle touches.
     pub touches: Vec<(u32, u32, f64, u32)>,
     /// Each triangle's window bounds `[x0, y0, x1, y1]` (of the part in
-    /// front of the apex), widened by [`FOOTPRINT_SLACK`].
+    /// front of the apex), widened by [`FOOTPRINT_SLACK`] and by how far
+    /// they may shift as seen from a moved apex.
     pub footprints: Vec<[f64; 4]>,
+    /// [`Frustum::window_shift`] for the apex moves the frusta must serve.
+    shift: DVec3,
 }
 
 impl Contacts {
-    pub fn clear(&mut self) {
+    /// Empties the contacts for a frustum whose apex may move by
+    /// `apex_reach` metres while its children serve it.
+    pub fn reset(&mut self, f: &Frustum, apex_reach: f64) {
         self.touches.clear();
         self.footprints.clear();
+        self.shift = f.window_shift(apex_reach);
+    }
+
+    /// How far the window bounds of a triangle whose nearest depth is
+    /// `depth` may move, along x and y. A window point `u = x / s` of a
+    /// point seen from an apex moved by `d` (window offset `(dx, dy, ds)`
+    /// of at most `shift`) is `u' = (x - dx) / (s - ds)`, so
+    /// `u - u' = (dx - u' ds) / s`: within `(|dx| + |ds|) / s` where the
+    /// point lies in the window (`|u'| <= 1`). A triangle reaching the
+    /// apex's depth may move anywhere.
+    fn growth(&self, depth: f64) -> (f64, f64) {
+        let DVec3 { x, y, z: s } = self.shift;
+        if x == 0.0 && y == 0.0 && s == 0.0 {
+            return (0.0, 0.0);
+        }
+        if depth > 0.0 {
+            ((x + s) / depth, (y + s) / depth)
+        } else {
+            (f64::INFINITY, f64::INFINITY)
+        }
     }
 }
 
@@ -196,12 +221,11 @@ pub(super) fn classify(
     let depth = w.iter().map(|q| q.z).fold(f64::INFINITY, f64::min).max(0.0);
     let can_cover = wholly_valid && !clipped;
     let footprint = contacts.footprints.len() as u32;
-    contacts.footprints.push([
-        lo.x - FOOTPRINT_SLACK,
-        lo.y - FOOTPRINT_SLACK,
-        hi.x + FOOTPRINT_SLACK,
-        hi.y + FOOTPRINT_SLACK,
-    ]);
+    let (gx, gy) = contacts.growth(depth);
+    let (gx, gy) = (gx + FOOTPRINT_SLACK, gy + FOOTPRINT_SLACK);
+    contacts
+        .footprints
+        .push([lo.x - gx, lo.y - gy, hi.x + gx, hi.y + gy]);
     for i in i0..=i1 {
         for j in j0..=j1 {
             let c = [

@@ -146,6 +146,14 @@ impl Frustum {
         self.to_window * (p - self.apex)
     }
 
+    /// The largest change of `(x, y, s)` over every point when the apex
+    /// moves by at most `reach` metres: each row of the inverse window
+    /// matrix's length times `reach`.
+    pub(crate) fn window_shift(&self, reach: f64) -> DVec3 {
+        let m = self.to_window;
+        DVec3::new(m.row(0).length(), m.row(1).length(), m.row(2).length()) * reach
+    }
+
     /// The gradient of the depth `s`: `s(p) = depth_gradient() · (p - apex)`.
     pub fn depth_gradient(&self) -> DVec3 {
         self.to_window.row(2)

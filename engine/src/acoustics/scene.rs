@@ -329,7 +329,7 @@ impl AcousticScene {
             surfaces: &self.surfaces,
             materials: &self.materials,
             source,
-            cut_windows: true,
+            apex_reach: 0.0,
         }
     }
 

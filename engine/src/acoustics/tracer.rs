@@ -137,12 +137,14 @@ pub(crate) struct TraceInput<'a> {
     pub surfaces: &'a Surfaces,
     pub materials: &'a [Material],
     pub source: DVec3,
-    /// Whether conservative secondary frusta are cut to the window bounds
-    /// of the triangles they leave from ([`GroupWindows`]). Frusta kept
-    /// for a source that will move are not: a path from the moved source
-    /// may meet a triangle outside its bounds as seen from where the
-    /// frusta were traced.
-    pub cut_windows: bool,
+    /// How far the source may move while these frusta serve it (a kept
+    /// trace's `source_reuse_m`; 0 for a one-off trace). Conservative
+    /// secondary frusta are cut to the window bounds of the triangles they
+    /// leave from ([`GroupWindows`]), widened by as much as those bounds
+    /// can shift seen from an apex moved that far (the apex of every
+    /// frustum moves by the source's move, mirrored): a path from the
+    /// moved source meets those triangles inside the widened bounds.
+    pub apex_reach: f64,
 }
 
 /// What the tracer does with each frustum of order >= 1, the frusta that
@@ -438,7 +440,7 @@ fn touch_cells(
         }
         CellAssignment::Conservative => {
             scratch.cover.reset(n * n);
-            scratch.contacts.clear();
+            scratch.contacts.reset(f, input.apex_reach);
             classify_culled(input, f, skip, n, None, scratch, stats);
             // A contact counts unless a covering triangle lies wholly in
             // front of it over the whole cell.
@@ -446,6 +448,7 @@ fn touch_cells(
             let Contacts {
                 touches,
                 footprints,
+                ..
             } = &scratch.contacts;
             // A triangle's contacts are side by side: its footprint is
             // taken once.
@@ -569,11 +572,7 @@ fn spawn(
             j0 as f64 * step,
             (j1 + 1) as f64 * step,
         ];
-        let [x0, x1, y0, y1] = if input.cut_windows {
-            scratch.windows.cut(group, rect)
-        } else {
-            rect
-        };
+        let [x0, x1, y0, y1] = scratch.windows.cut(group, rect);
         let Some(sub) = p.frustum.sub(x0, x1, y0, y1) else {
             continue;
         };
