@@ -253,6 +253,39 @@ mod cached {
     }
 
     #[test]
+    fn a_trace_too_large_to_keep_is_not_widened_again() {
+        // Widened for a moving source, a trace costs more frusta than a
+        // one-off trace; one that is not kept serves no moving source, so
+        // the next is traced as a one-off trace is.
+        let scene = AcousticScene::new(&bundled("l-room"));
+        let listener = [Vec3::new(11.0, 5.0, 1.2)];
+        let options = SimulationOptions {
+            max_order: 4,
+            sampling: 8,
+            cells: CellAssignment::Conservative,
+            sample_rate: 8_000,
+            tail: Tail::None,
+            diffraction_order: 0,
+            source_reuse_m: 0.5,
+            ..Default::default()
+        };
+        let (here, there) = (Vec3::new(1.0, 9.0, 1.5), Vec3::new(2.5, 9.0, 1.5));
+        let one_off = |s: Vec3| {
+            simulate(&scene, &[s], &listener, &options).unwrap()[0]
+                .stats
+                .frusta
+        };
+        let mut cache = BeamCache::with_max_beams(0);
+        let mut cached = |s: Vec3| {
+            simulate_cached(&scene, &[s], &listener, &options, &mut cache, None, None).unwrap()[0]
+                .stats
+                .frusta
+        };
+        assert!(cached(here) > one_off(here));
+        assert_eq!(cached(there), one_off(there));
+    }
+
+    #[test]
     fn a_moving_source_reuses_its_beams_within_reach_and_finds_no_false_path() {
         let scene = AcousticScene::new(&bundled("l-room"));
         let listener = [Vec3::new(11.0, 5.0, 1.2)];

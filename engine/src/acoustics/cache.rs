@@ -23,6 +23,10 @@ pub struct BeamCache {
     /// reused them from elsewhere.
     entries: Vec<Entry>,
     max_beams: usize,
+    /// The last trace had more than `max_beams` frusta and kept none: the
+    /// next is not widened for a moving source (which it would not serve),
+    /// so it costs a one-off trace and may fit for moving listeners.
+    too_large: bool,
     /// Tail walks: what a walk depends on besides the key and the source,
     /// the walk (whose chunks say where they were walked from), and the
     /// call that last took it. Sources whose walk would take the kept ones
@@ -93,6 +97,7 @@ impl BeamCache {
             key: None,
             entries: Vec::new(),
             max_beams,
+            too_large: false,
             tails: Vec::new(),
             max_tail_events: DEFAULT_MAX_TAIL_EVENTS,
             call: 0,
@@ -121,6 +126,7 @@ impl BeamCache {
             .is_none_or(|k| k.state != scene.state() || k.options != *options);
         if stale {
             self.entries.clear();
+            self.too_large = false;
             self.tails.clear();
             self.key = Some(Key {
                 state: scene.state(),
@@ -324,12 +330,14 @@ impl BeamCache {
                 (proposals, stats, Some(moved.length()))
             }
             None => {
+                let reach = if self.too_large { 0.0 } else { reach };
                 let input = TraceInput {
                     apex_reach: reach,
                     ..scene.trace_input(source)
                 };
                 let (proposals, stats, beams) =
                     trace_keeping(&input, listeners, options, deadline, self.max_beams)?;
+                self.too_large = beams.is_none();
                 if let Some(beams) = beams {
                     self.entries.push(Entry {
                         at: source,

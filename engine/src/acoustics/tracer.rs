@@ -143,7 +143,10 @@ pub(crate) struct TraceInput<'a> {
     /// leave from ([`GroupWindows`]), widened by as much as those bounds
     /// can shift seen from an apex moved that far (the apex of every
     /// frustum moves by the source's move, mirrored): a path from the
-    /// moved source meets those triangles inside the widened bounds.
+    /// moved source through those triangles and the cells they were seen
+    /// in stays inside. Paths through other cells, or through triangles
+    /// not seen from the old apex, wait for the next trace, as they would
+    /// in uncut frusta.
     pub apex_reach: f64,
 }
 
