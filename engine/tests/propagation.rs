@@ -252,6 +252,21 @@ mod cached {
         }
     }
 
+    /// Conservative cells at order 4, N = 8, exact paths only, frusta kept
+    /// for a source moving within `reach`.
+    fn moving_source_options(reach: f64) -> SimulationOptions {
+        SimulationOptions {
+            max_order: 4,
+            sampling: 8,
+            cells: CellAssignment::Conservative,
+            sample_rate: 8_000,
+            tail: Tail::None,
+            diffraction_order: 0,
+            source_reuse_m: reach,
+            ..Default::default()
+        }
+    }
+
     #[test]
     fn a_trace_too_large_to_keep_is_not_widened_again() {
         // Widened for a moving source, a trace costs more frusta than a
@@ -259,16 +274,7 @@ mod cached {
         // the next is traced as a one-off trace is.
         let scene = AcousticScene::new(&bundled("l-room"));
         let listener = [Vec3::new(11.0, 5.0, 1.2)];
-        let options = SimulationOptions {
-            max_order: 4,
-            sampling: 8,
-            cells: CellAssignment::Conservative,
-            sample_rate: 8_000,
-            tail: Tail::None,
-            diffraction_order: 0,
-            source_reuse_m: 0.5,
-            ..Default::default()
-        };
+        let options = moving_source_options(0.5);
         let (here, there) = (Vec3::new(1.0, 9.0, 1.5), Vec3::new(2.5, 9.0, 1.5));
         let one_off = |s: Vec3| {
             simulate(&scene, &[s], &listener, &options).unwrap()[0]
@@ -289,16 +295,7 @@ mod cached {
     fn a_moving_source_reuses_its_beams_within_reach_and_finds_no_false_path() {
         let scene = AcousticScene::new(&bundled("l-room"));
         let listener = [Vec3::new(11.0, 5.0, 1.2)];
-        let options = SimulationOptions {
-            max_order: 4,
-            sampling: 8,
-            cells: CellAssignment::Conservative,
-            sample_rate: 8_000,
-            tail: Tail::None,
-            diffraction_order: 0,
-            source_reuse_m: 0.25,
-            ..Default::default()
-        };
+        let options = moving_source_options(0.25);
         let same = |a: &SoundPath, b: &SoundPath| {
             a.order == b.order && (a.distance_m - b.distance_m).abs() < 1e-9
         };
