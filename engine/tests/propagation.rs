@@ -271,24 +271,29 @@ mod cached {
     fn a_trace_too_large_to_keep_is_not_widened_again() {
         // Widened for a moving source, a trace costs more frusta than a
         // one-off trace; one that is not kept serves no moving source, so
-        // the next is traced as a one-off trace is.
+        // the next ones are traced as one-off traces are, also once one
+        // fits (kept for its own position only).
         let scene = AcousticScene::new(&bundled("l-room"));
         let listener = [Vec3::new(11.0, 5.0, 1.2)];
         let options = moving_source_options(0.5);
         let (here, there) = (Vec3::new(1.0, 9.0, 1.5), Vec3::new(2.5, 9.0, 1.5));
+        let near_there = there + Vec3::new(0.1, 0.0, 0.0);
         let one_off = |s: Vec3| {
             simulate(&scene, &[s], &listener, &options).unwrap()[0]
                 .stats
                 .frusta
         };
-        let mut cache = BeamCache::with_max_beams(0);
+        // Room for a one-off trace's frusta (primaries included), not for
+        // a widened one's.
+        let mut cache = BeamCache::with_max_beams(one_off(there) as usize);
         let mut cached = |s: Vec3| {
             simulate_cached(&scene, &[s], &listener, &options, &mut cache, None, None).unwrap()[0]
                 .stats
                 .frusta
         };
-        assert!(cached(here) > one_off(here));
+        assert!(cached(here) > one_off(there));
         assert_eq!(cached(there), one_off(there));
+        assert_eq!(cached(near_there), one_off(near_there));
     }
 
     #[test]

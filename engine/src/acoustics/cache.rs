@@ -23,9 +23,10 @@ pub struct BeamCache {
     /// reused them from elsewhere.
     entries: Vec<Entry>,
     max_beams: usize,
-    /// The last trace had more than `max_beams` frusta and kept none: the
-    /// next is not widened for a moving source (which it would not serve),
-    /// so it costs a one-off trace and may fit for moving listeners.
+    /// A trace widened for a moving source had more than `max_beams`
+    /// frusta and kept none: until the scene or the options change, traces
+    /// are not widened (they would serve no moving source), so each costs
+    /// a one-off trace and may fit for moving listeners.
     too_large: bool,
     /// Tail walks: what a walk depends on besides the key and the source,
     /// the walk (whose chunks say where they were walked from), and the
@@ -337,7 +338,7 @@ impl BeamCache {
                 };
                 let (proposals, stats, beams) =
                     trace_keeping(&input, listeners, options, deadline, self.max_beams)?;
-                self.too_large = beams.is_none();
+                self.too_large |= reach > 0.0 && beams.is_none();
                 if let Some(beams) = beams {
                     self.entries.push(Entry {
                         at: source,
