@@ -185,8 +185,6 @@ pub(super) fn classify(
     };
     let (i0, i1) = cell_range(lo.x, hi.x);
     let (j0, j1) = cell_range(lo.y, hi.y);
-    // Edge lines, oriented so the polygon is on their positive side and
-    // scaled to give distances in window units.
     let area2: f64 = (0..count)
         .map(|k| poly[k].perp_dot(poly[(k + 1) % count]))
         .sum();
@@ -194,13 +192,9 @@ pub(super) fn classify(
         return;
     }
     let orient = area2.signum();
-    let mut edges = [(DVec2::ZERO, 0.0); 4];
+    let mut edges = [Edge::default(); 4];
     for k in 0..count {
-        let (a, b) = (poly[k], poly[(k + 1) % count]);
-        let d = b - a;
-        let len = d.length();
-        let normal = DVec2::new(-d.y, d.x) * (orient / len);
-        edges[k] = (normal, normal.dot(a));
+        edges[k] = Edge::new(poly[k], poly[(k + 1) % count], orient);
     }
     let edges = &edges[..count];
     let step = 1.0 / n as f64;
@@ -234,15 +228,15 @@ pub(super) fn classify(
                 DVec2::new((i + 1) as f64 * step, (j + 1) as f64 * step),
                 DVec2::new(i as f64 * step, (j + 1) as f64 * step),
             ];
+            // Every edge's four tests, without a branch per test: which
+            // way they go does not predict.
             let mut inside_all = true;
             let mut separated = false;
-            for &(normal, offset) in edges {
-                let e = c.map(|q| normal.dot(q) - offset);
-                if e.iter().all(|&x| x < -MARGIN) {
-                    separated = true;
-                    break;
-                }
-                inside_all &= e.iter().all(|&x| x > MARGIN);
+            for edge in edges {
+                let [e0, e1, e2, e3] = c.map(|q| edge.value(q));
+                let m = edge.margin;
+                separated |= (e0 < -m) & (e1 < -m) & (e2 < -m) & (e3 < -m);
+                inside_all &= (e0 > m) & (e1 > m) & (e2 > m) & (e3 > m);
             }
             if separated {
                 continue;
@@ -262,10 +256,48 @@ pub(super) fn classify(
     }
 }
 
+/// An edge line of a polygon in the window, the polygon on its positive
+/// side.
+///
+/// Its normal is the edge turned, not normalised: its value at a point is
+/// the distance times the edge's length, and [`MARGIN`] is scaled by the
+/// edge's L1 length, at least the Euclidean one, so a point is within
+/// `margin` where it is within at least `MARGIN` of the line (never less,
+/// at most √2 times more). That keeps every test as conservative as with
+/// a normalised edge, without a square root and a division per edge.
+#[derive(Clone, Copy, Default)]
+struct Edge {
+    normal: DVec2,
+    offset: f64,
+    margin: f64,
+}
+
+impl Edge {
+    /// The edge from `a` to `b` of a polygon of orientation `orient`
+    /// (the sign of its area).
+    #[inline]
+    fn new(a: DVec2, b: DVec2, orient: f64) -> Self {
+        let d = b - a;
+        let normal = DVec2::new(-d.y, d.x) * orient;
+        Self {
+            normal,
+            offset: normal.dot(a),
+            margin: MARGIN * (d.x.abs() + d.y.abs()),
+        }
+    }
+
+    /// The distance of `q` from the line, times the edge's length: positive
+    /// on the polygon's side.
+    #[inline]
+    fn value(&self, q: DVec2) -> f64 {
+        self.normal.x * q.x + self.normal.y * q.y - self.offset
+    }
+}
+
 /// A triangle projected into a frustum's window.
 struct Footprint<'a> {
-    /// Edge lines `(normal, offset)`, the triangle on their positive side.
-    edges: &'a [(DVec2, f64)],
+    /// Edge lines, the triangle on their positive side.
+    edges: &'a [Edge],
     /// The cells its window bounds span, `[i0, i1, j0, j1]` inclusive.
     cells: [usize; 4],
     n: usize,
@@ -298,12 +330,12 @@ fn record_samples(
         plane.normal.dot(f.edge_u),
         plane.normal.dot(f.edge_v),
     );
-    // As `!any(< -MARGIN)`, so a NaN edge (a zero-length one) rejects
-    // nothing; NaN is the same along a row, so the run argument holds.
+    // As `!any(< -margin)`, so a zero-length edge (value and margin 0)
+    // rejects nothing.
     let inside = |x: f64, y: f64| {
         !edges
             .iter()
-            .any(|&(normal, offset)| normal.x * x + normal.y * y - offset < -MARGIN)
+            .any(|edge| edge.value(DVec2::new(x, y)) < -edge.margin)
     };
     let mut record = |k: usize, x: f64, y: f64| {
         let depth = plane_offset / (d0 + du * x + dv * y);
@@ -339,7 +371,7 @@ fn record_samples(
 /// The `j` of `range` for which `inside(j)` holds, given that they form
 /// one run: only the points outside it at either end are tested.
 ///
-/// Along a row of sample points, an edge's test `a x + b y - c >= -MARGIN`
+/// Along a row of sample points, an edge's test `a x + b y - c >= -margin`
 /// is monotone in `y` even as rounded (every rounded operation is monotone
 /// in its operand), so each edge keeps a run of the row and the convex
 /// polygon's edges together keep one: the same points as testing each.
