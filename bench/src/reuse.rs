@@ -148,7 +148,7 @@ fn run_scene(name: &'static str, reuse: &[f64], args: &Args) -> Result<Vec<Row>,
     };
     let options = |reuse_m: f64| SimulationOptions {
         max_order: args.order,
-        sampling: args.sampling,
+        sampling: Some(args.sampling),
         cells,
         air: None,
         sample_rate: 8_000,

@@ -336,7 +336,6 @@ fn checkered(mut scene: Scene) -> Scene {
 fn options(order: u32, cells: CellAssignment, air: Option<AirConditions>) -> SimulationOptions {
     SimulationOptions {
         max_order: order,
-        sampling: 8,
         energy_threshold: 0.0,
         cells,
         air,
@@ -440,8 +439,6 @@ fn conservative_paths_equal_the_independent_reference_one_by_one() {
         for (i, &(s, l)) in case.pairs.iter().enumerate() {
             // Air on for the first pair, off for the second.
             let air = (i == 0).then_some(air);
-            let options = options(case.order, CellAssignment::Conservative, air);
-            let traced = trace(&acoustic, s, l, &options);
             let exact = reference.paths(
                 s.as_dvec3(),
                 l.as_dvec3(),
@@ -449,14 +446,24 @@ fn conservative_paths_equal_the_independent_reference_one_by_one() {
                 air.as_ref().map(|_| &coefficients),
             );
             let speed = speed_of_sound(&air.unwrap_or_default());
-            let (matched, total, false_paths, error) = compare(&case.scene, &traced, &exact, speed);
-            println!(
-                "{} pair {i}: {matched}/{total} paths, {false_paths} false, order {}",
-                case.name, case.order
-            );
-            assert!(total >= 10, "{}: only {total} reference paths", case.name);
-            if let Some(e) = error {
-                failures.push(format!("{} pair {i}: {e}", case.name));
+            // The default grid (2 x 2) and a fine one.
+            for sampling in [None, Some(8)] {
+                let options = SimulationOptions {
+                    sampling,
+                    ..options(case.order, CellAssignment::Conservative, air)
+                };
+                let traced = trace(&acoustic, s, l, &options);
+                let (matched, total, false_paths, error) =
+                    compare(&case.scene, &traced, &exact, speed);
+                let n = options.sampling();
+                println!(
+                    "{} pair {i}, N = {n}: {matched}/{total} paths, {false_paths} false, order {}",
+                    case.name, case.order
+                );
+                assert!(total >= 10, "{}: only {total} reference paths", case.name);
+                if let Some(e) = error {
+                    failures.push(format!("{} pair {i}, N = {n}: {e}", case.name));
+                }
             }
         }
     }

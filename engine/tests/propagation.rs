@@ -119,6 +119,7 @@ fn sampled_cells_find_the_box_image_sources_with_fewer_frusta() {
     let run = |cells| {
         let options = TraceOptions {
             max_order: 4,
+            sampling: 8,
             energy_threshold: 0.0,
             cells,
             ..TraceOptions::default()
@@ -152,7 +153,6 @@ mod cached {
     fn options(max_order: u32) -> SimulationOptions {
         SimulationOptions {
             max_order,
-            sampling: 8,
             sample_rate: 8_000,
             source_reuse_m: 0.0,
             ..Default::default()
@@ -257,7 +257,7 @@ mod cached {
     fn moving_source_options(reach: f64) -> SimulationOptions {
         SimulationOptions {
             max_order: 4,
-            sampling: 8,
+            sampling: Some(8),
             cells: CellAssignment::Conservative,
             sample_rate: 8_000,
             tail: Tail::None,

@@ -224,7 +224,6 @@ fn shoebox_simulate_matches_reference_delays_and_gains() {
     let (s, l) = (S.as_vec3(), L.as_vec3());
     let opts = SimulationOptions {
         max_order: 6,
-        sampling: 8,
         energy_threshold: 0.0,
         ..SimulationOptions::default()
     };
@@ -676,14 +675,14 @@ fn invalid_options_are_errors() {
     for (opts, word) in [
         (
             SimulationOptions {
-                sampling: 0,
+                sampling: Some(0),
                 ..SimulationOptions::default()
             },
             "sampling",
         ),
         (
             SimulationOptions {
-                sampling: 65,
+                sampling: Some(65),
                 ..SimulationOptions::default()
             },
             "sampling",

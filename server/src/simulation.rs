@@ -81,10 +81,11 @@ impl IrRequest {
                 self.options.max_order, limits.max_order
             )));
         }
-        if self.options.sampling > limits.max_sampling {
+        if self.options.sampling() > limits.max_sampling {
             return Err(ApiError::LimitExceeded(format!(
                 "sampling {} exceeds this server's limit of {}",
-                self.options.sampling, limits.max_sampling
+                self.options.sampling(),
+                limits.max_sampling
             )));
         }
         if let Some(tail) = self.options.tail.options() {

@@ -11,7 +11,7 @@ use frusta_engine::acoustics::signal::impulse_response::MAX_SAMPLE_RATE;
 use frusta_engine::acoustics::signal::AirConditions;
 use frusta_engine::acoustics::tail::{MAX_LENGTH_S, MAX_RAYS};
 use frusta_engine::acoustics::MAX_SOURCE_REUSE_M;
-use frusta_engine::acoustics::{SimulationOptions, TailOptions};
+use frusta_engine::acoustics::{CellAssignment, SimulationOptions, TailOptions};
 use frusta_engine::scene::OCTAVE_BANDS_HZ;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -162,7 +162,16 @@ impl ImpulseResponseRequest {
             ),
             (
                 "sampling",
-                integer("Sub-frusta per frustum side, N (the server may cap it lower)", defaults.sampling, 1, 64),
+                ObjectBuilder::new()
+                    .schema_type(Type::Integer)
+                    .description(Some(format!(
+                        "Sub-frusta per frustum side, N (the server may cap it lower); default {} with conservative cells, {} with sampled cells",
+                        CellAssignment::Conservative.default_sampling(),
+                        CellAssignment::Sampled.default_sampling()
+                    )))
+                    .minimum(Some(1))
+                    .maximum(Some(64))
+                    .into(),
             ),
             (
                 "primary_split",

@@ -97,7 +97,7 @@ pub fn runs(
     for cells in [CellAssignment::Sampled, CellAssignment::Conservative] {
         let options = SimulationOptions {
             max_order: setup.order,
-            sampling: setup.sampling,
+            sampling: Some(setup.sampling),
             cells,
             ..SimulationOptions::default()
         };

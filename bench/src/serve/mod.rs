@@ -93,7 +93,7 @@ impl Options {
     pub fn simulation(&self) -> SimulationOptions {
         SimulationOptions {
             max_order: self.max_order,
-            sampling: self.sampling,
+            sampling: Some(self.sampling),
             cells: match self.cells.as_str() {
                 "conservative" => CellAssignment::Conservative,
                 _ => CellAssignment::Sampled,

@@ -25,9 +25,10 @@ pub struct SimulationArgs {
     /// Highest reflection order.
     #[arg(long, default_value_t = 4)]
     max_order: u32,
-    /// Sub-frusta per frustum side (N).
-    #[arg(long, default_value_t = 8)]
-    sampling: u32,
+    /// Sub-frusta per frustum side (N); default 2 with conservative cells,
+    /// 8 with sampled cells.
+    #[arg(long)]
+    sampling: Option<u32>,
     /// Hand sub-frusta to every triangle they touch (`conservative`: every
     /// image source) or to what their sample rays hit (`sampled`: faster in
     /// detailed scenes).

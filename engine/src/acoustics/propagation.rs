@@ -34,8 +34,9 @@ pub const MAX_ORDER: u32 = 32;
 #[serde(default, deny_unknown_fields)]
 pub struct SimulationOptions {
     pub max_order: u32,
-    /// Sub-frusta per frustum side (`N`), 1..=64.
-    pub sampling: u32,
+    /// Sub-frusta per frustum side (`N`), 1..=64; `None` takes the cells'
+    /// [`CellAssignment::default_sampling`] (2 conservative, 8 sampled).
+    pub sampling: Option<u32>,
     /// Frusta per cube-face side leaving the source.
     pub primary_split: u32,
     /// Energy (relative to the source, per band) below which a frustum
@@ -80,7 +81,7 @@ impl Default for SimulationOptions {
         let trace = TraceOptions::default();
         Self {
             max_order: trace.max_order,
-            sampling: trace.sampling,
+            sampling: None,
             primary_split: trace.primary_split,
             energy_threshold: trace.energy_threshold,
             cells: trace.cells,
@@ -133,6 +134,12 @@ impl SimulationOptions {
             .transpose()
     }
 
+    /// The sampling `N` asked for, or the cells' default.
+    pub fn sampling(&self) -> u32 {
+        self.sampling
+            .unwrap_or_else(|| self.cells.default_sampling())
+    }
+
     /// Checks every option; the error names the one at fault.
     pub fn trace_options(&self) -> Result<TraceOptions> {
         if self.max_order > MAX_ORDER {
@@ -141,10 +148,11 @@ impl SimulationOptions {
                 reason: format!("{} exceeds {MAX_ORDER}", self.max_order),
             });
         }
-        if !(1..=64).contains(&self.sampling) {
+        let sampling = self.sampling();
+        if !(1..=64).contains(&sampling) {
             return Err(Error::InvalidOption {
                 field: "sampling".into(),
-                reason: format!("{} must lie in 1..=64", self.sampling),
+                reason: format!("{sampling} must lie in 1..=64"),
             });
         }
         if !(1..=16).contains(&self.primary_split) {
@@ -184,7 +192,7 @@ impl SimulationOptions {
         }
         Ok(TraceOptions {
             max_order: self.max_order,
-            sampling: self.sampling,
+            sampling,
             primary_split: self.primary_split,
             energy_threshold: self.energy_threshold,
             active_bands,
@@ -702,14 +710,14 @@ mod tests {
             (
                 "sampling",
                 SimulationOptions {
-                    sampling: 0,
+                    sampling: Some(0),
                     ..Default::default()
                 },
             ),
             (
                 "sampling",
                 SimulationOptions {
-                    sampling: 65,
+                    sampling: Some(65),
                     ..Default::default()
                 },
             ),
