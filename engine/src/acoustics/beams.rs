@@ -155,7 +155,7 @@ impl Beams {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::acoustics::tracer::{events_of, trace, trace_beams};
+    use crate::acoustics::tracer::{events_of, trace, trace_beams, trace_keeping};
     use crate::acoustics::{test_shoebox, AcousticScene, CellAssignment, TraceOptions};
     use crate::deadline::Deadline;
 
@@ -176,9 +176,15 @@ mod tests {
                 ..TraceOptions::default()
             };
             let none = Deadline::none();
-            let (traced, stats) = trace(&input, &listeners, &options, &none).unwrap();
+            // Every triangle handed to the last order, as kept beams are.
+            let (traced, stats, _) = trace_keeping(&input, &listeners, &options, &none, 0).unwrap();
             let beams = trace_beams(&input, &options, &none).unwrap();
             assert_eq!(beams.proposals(&listeners), traced);
+            // A one-off trace proposes some of those.
+            let (one_off, _) = trace(&input, &listeners, &options, &none).unwrap();
+            for (some, all) in one_off.iter().zip(&traced) {
+                assert!(some.iter().all(|p| all.contains(p)));
+            }
             assert_eq!(
                 beams.stats(),
                 TraceStats {

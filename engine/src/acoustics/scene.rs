@@ -330,6 +330,7 @@ impl AcousticScene {
             materials: &self.materials,
             source,
             apex_reach: 0.0,
+            last_order_listeners: None,
         }
     }
 

@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::DVec3;
 
 use super::beams::Beams;
-use super::classify::{classify, Contacts, NearestDepths, Target};
+use super::classify::{classify, Contacts, LastOrder, NearestDepths, Target};
 use super::cull::{box_cull, for_each_leaf};
 use super::frustum::Frustum;
 use super::merge::{merge_cells, CellSets, GroupWindows};
@@ -166,6 +166,12 @@ pub(crate) struct TraceInput<'a> {
     /// not seen from the old apex, wait for the next trace, as they would
     /// in uncut frusta.
     pub apex_reach: f64,
+    /// The listeners, when the trace only proposes to them and keeps no
+    /// frusta ([`trace`]): a frustum's children of the last order are then
+    /// handed only triangles through which one of them can be reached
+    /// (see [`classify::LastOrder`]). `None` hands them every triangle, for
+    /// frusta kept to test other listeners against later.
+    pub last_order_listeners: Option<&'a [DVec3]>,
 }
 
 /// What the tracer does with each frustum of order >= 1, the frusta that
@@ -202,7 +208,11 @@ pub(crate) fn trace(
     options: &TraceOptions,
     deadline: &Deadline,
 ) -> Result<(Proposed, TraceStats)> {
-    let (proposals, stats, _) = trace_keeping(input, listeners, options, deadline, 0)?;
+    let input = TraceInput {
+        last_order_listeners: Some(listeners),
+        ..*input
+    };
+    let (proposals, stats, _) = trace_keeping(&input, listeners, options, deadline, 0)?;
     Ok((proposals, stats))
 }
 
@@ -414,11 +424,14 @@ fn expand(
     scratch.touched.clear();
     scratch.windows.clear();
     let f = &p.frustum;
-    touch_cells(input, f, last_group, n, options.cells, scratch, stats);
+    let last_order = input
+        .last_order_listeners
+        .filter(|_| p.order + 1 == options.max_order);
+    touch_cells(input, f, last_group, n, options.cells, last_order, scratch, stats);
     scratch.cell_sets.sort_dedup(&mut scratch.touched, n * n);
     let touched = std::mem::take(&mut scratch.touched);
     for cells in touched.chunk_by(|a, b| a.0 == b.0) {
-        spawn(input, options, p, cells, n, scratch);
+        spawn(input, options, p, cells, n, last_order, scratch);
     }
     scratch.touched = touched;
 }
@@ -439,12 +452,18 @@ const SAMPLE_CLASSIFY_BUDGET: u64 = 48;
 /// cell that no covering triangle hides. Sampled: the groups the cell's
 /// five sample rays meet first, found by classifying the triangles the
 /// cull reaches while they are few, else by casting the rays.
+///
+/// Given `last_order` listeners (the children are of the last order and
+/// only propose to them), conservative cells hand out only triangles
+/// through which one of them can be reached.
+#[allow(clippy::too_many_arguments)]
 fn touch_cells(
     input: &TraceInput,
     f: &Frustum,
     skip: Option<u32>,
     n: usize,
     cells: CellAssignment,
+    last_order: Option<&[DVec3]>,
     scratch: &mut Scratch,
     stats: &mut TraceStats,
 ) {
@@ -452,7 +471,7 @@ fn touch_cells(
         CellAssignment::Sampled => {
             scratch.samples.reset((n + 1) * (n + 1) + n * n);
             let budget = Some(SAMPLE_CLASSIFY_BUDGET);
-            if !classify_culled(input, f, skip, n, budget, scratch, stats) {
+            if !classify_culled(input, f, skip, n, budget, None, scratch, stats) {
                 let hit = &mut scratch.samples.group;
                 sample_rays::cast(input.bvh, input.surfaces, f, skip, n, hit);
                 stats.sample_rays += hit.len() as u64;
@@ -462,7 +481,7 @@ fn touch_cells(
         CellAssignment::Conservative => {
             scratch.cover.reset(n * n);
             scratch.contacts.reset(f, input.apex_reach);
-            classify_culled(input, f, skip, n, None, scratch, stats);
+            classify_culled(input, f, skip, n, None, last_order, scratch, stats);
             // A contact counts unless a covering triangle lies wholly in
             // front of it over the whole cell.
             let cover = &scratch.cover.depth;
@@ -491,13 +510,16 @@ fn touch_cells(
 /// into the cover depths and contacts (conservative cells) or, given a
 /// `sample_budget`, into the sample hits, until nothing nearer can remain.
 /// Sampling gives up, returning false, once more than `sample_budget`
-/// triangles were classified.
+/// triangles were classified. Cells are handed only triangles that show
+/// one of the `last_order` listeners, if given.
+#[allow(clippy::too_many_arguments)]
 fn classify_culled(
     input: &TraceInput,
     f: &Frustum,
     skip: Option<u32>,
     n: usize,
     sample_budget: Option<u64>,
+    last_order: Option<&[DVec3]>,
     scratch: &mut Scratch,
     stats: &mut TraceStats,
 ) -> bool {
@@ -522,7 +544,14 @@ fn classify_culled(
             let target = if sampled {
                 Target::Samples(samples)
             } else {
-                Target::Cells(cover, contacts)
+                let last_order = last_order.map(|listeners| LastOrder {
+                    listeners,
+                    transmits: input
+                        .materials
+                        .get(input.surfaces.group(group).material as usize)
+                        .is_some_and(Material::transmits),
+                });
+                Target::Cells(cover, contacts, last_order)
             };
             classify(f, input.surfaces, corners, group, n, scale, target);
         }
@@ -568,13 +597,15 @@ fn sampled_cells(hit: &[u32], n: usize, touched: &mut Vec<(u32, u32)>) {
 }
 
 /// Pushes the secondary frusta over `cells`, `(group, cell)` pairs of one
-/// group.
+/// group; of the last order, only those that may contain one of the
+/// `last_order` listeners, if given (the others would propose nothing).
 fn spawn(
     input: &TraceInput,
     options: &TraceOptions,
     p: &Pending,
     cells: &[(u32, u32)],
     n: usize,
+    last_order: Option<&[DVec3]>,
     scratch: &mut Scratch,
 ) {
     let group = cells[0].0;
@@ -594,6 +625,30 @@ fn spawn(
             (j1 + 1) as f64 * step,
         ];
         let [x0, x1, y0, y1] = scratch.windows.cut(group, rect);
+        if let Some(listeners) = last_order {
+            // A child contains a listener within `LISTENER_MARGIN` of its
+            // own window, this rectangle of the parent's mirrored: twice
+            // that, and a billionth of the window for the rounding, keeps
+            // every child that may.
+            let (mx, my) = (
+                2.0 * LISTENER_MARGIN * (x1 - x0) + 1e-9,
+                2.0 * LISTENER_MARGIN * (y1 - y0) + 1e-9,
+            );
+            let in_rect = |q: DVec3| {
+                let w = p.frustum.window_coords(q);
+                // As `!(s <= 0)`, so that NaN is kept.
+                if w.z <= 0.0 {
+                    return false;
+                }
+                let (u, v) = (w.x / w.z, w.y / w.z);
+                !(u < x0 - mx || u > x1 + mx || v < y0 - my || v > y1 + my)
+            };
+            let transmits = material.transmits();
+            let shown = |&l: &DVec3| in_rect(g.plane.mirror(l)) || (transmits && in_rect(l));
+            if !listeners.iter().any(shown) {
+                continue;
+            }
+        }
         let Some(sub) = p.frustum.sub(x0, x1, y0, y1) else {
             continue;
         };
