@@ -6,6 +6,8 @@
 //! rays needed), "all corners outside one edge" is a miss, and only cells
 //! inside the triangle's window bounds are looked at.
 
+use std::cmp::Ordering;
+
 use glam::{DVec2, DVec3};
 
 use super::frustum::Frustum;
@@ -114,15 +116,13 @@ impl Contacts {
 /// The listeners that a frustum's children of the last order can propose
 /// (they are visited, never expanded), for a trace that keeps no frusta.
 ///
-/// A child proposes a listener it contains: one whose image in the
-/// child's plane (or, passing through, the listener itself) lies in the
-/// child's window, cut to the footprints of the group's triangles seen.
-/// A path that validates reflects off (or passes) one triangle at a point
-/// the parent sees, so the image lies in that triangle's footprint.
-/// Triangles whose footprints hold no image hand out no cells, and cover
-/// none: the children are those that can propose a valid path, occlusion
-/// only weakens, and no path is lost. In a detailed hall nearly all frusta
-/// are of the last order, and almost none of them holds a listener.
+/// A path that validates reflects off (or passes) one triangle, at the
+/// point where the segment from the parent's apex to the listener's image
+/// in the triangle's plane (or to the listener) crosses it. Triangles no
+/// such segment crosses hand out no cells, and cover none: the children
+/// left are those that can propose a valid path, occlusion only weakens,
+/// and no path is lost. In a detailed hall nearly all frusta are of the
+/// last order, and almost none of them holds a listener.
 #[derive(Clone, Copy)]
 pub(super) struct LastOrder<'a> {
     pub listeners: &'a [DVec3],
@@ -131,22 +131,50 @@ pub(super) struct LastOrder<'a> {
 }
 
 impl LastOrder<'_> {
-    /// Whether the window rectangle `[x0, y0, x1, y1]` of frustum `f` holds
-    /// the image of a listener in `plane`, or a listener where the plane
-    /// passes sound.
-    fn shown(&self, f: &Frustum, plane: Plane, [x0, y0, x1, y1]: [f64; 4]) -> bool {
-        let holds = |p: DVec3| {
-            let w = f.window_coords(p);
-            // As `!(s <= 0)`, so that NaN is kept.
-            if w.z <= 0.0 {
+    /// Whether a listener can be reached through the triangle `p` of
+    /// `plane`, `apex_distance` from the apex: by reflection, where the
+    /// segment from the apex to the listener's image crosses the plane
+    /// inside the triangle, or passing through, where the segment to the
+    /// listener does. Inside within a millionth of the triangle's size and
+    /// a billionth of the scene's, far above the rounding.
+    fn reached(
+        &self,
+        apex: DVec3,
+        apex_distance: f64,
+        plane: Plane,
+        p: &[DVec3; 3],
+        scale: f64,
+    ) -> bool {
+        let normal = (p[1] - p[0]).cross(p[2] - p[0]);
+        let size = (p[1] - p[0]).abs().max_element()
+            + (p[2] - p[1]).abs().max_element()
+            + (p[0] - p[2]).abs().max_element();
+        let slack = 1e-6 * size + 1e-9 * scale;
+        let inside = |x: DVec3| {
+            (0..3).all(|k| {
+                let (a, b) = (p[k], p[(k + 1) % 3]);
+                let edge = b - a;
+                // The distance from the edge's line, times |edge| |normal|:
+                // both bounded above by their L1 lengths, so the slack only
+                // grows.
+                let bound = slack * edge.abs().element_sum() * normal.abs().element_sum();
+                // Kept unless surely outside, so NaN is kept.
+                edge.cross(x - a).dot(normal).partial_cmp(&-bound) != Some(Ordering::Less)
+            })
+        };
+        // Where the segment from the apex to `to`, `to_distance` from the
+        // plane on its other side, crosses it.
+        let crosses = |to: DVec3, to_distance: f64| {
+            // As `!(>= 0)`, so that NaN is kept.
+            if apex_distance * to_distance >= 0.0 {
                 return false;
             }
-            let (u, v) = (w.x / w.z, w.y / w.z);
-            !(u < x0 || u > x1 || v < y0 || v > y1)
+            inside(apex + (to - apex) * (apex_distance / (apex_distance - to_distance)))
         };
-        self.listeners
-            .iter()
-            .any(|&l| holds(plane.mirror(l)) || (self.transmits && holds(l)))
+        self.listeners.iter().any(|&l| {
+            let d = plane.distance(l);
+            crosses(plane.mirror(l), -d) || (self.transmits && crosses(l, d))
+        })
     }
 }
 
@@ -155,7 +183,11 @@ pub(super) enum Target<'a> {
     /// Cover depths per cell and the contacts
     /// ([`CellAssignment::Conservative`](super::tracer::CellAssignment)),
     /// only of triangles that show a listener if `LastOrder` is given.
-    Cells(&'a mut NearestDepths, &'a mut Contacts, Option<LastOrder<'a>>),
+    Cells(
+        &'a mut NearestDepths,
+        &'a mut Contacts,
+        Option<LastOrder<'a>>,
+    ),
     /// Nearest hit per sample ray: `(N+1)^2` cell corners, then `N^2` cell
     /// centres ([`CellAssignment::Sampled`](super::tracer::CellAssignment)).
     Samples(&'a mut NearestDepths),
@@ -191,6 +223,11 @@ pub(super) fn classify(
         return;
     }
     let p = corners.map(|c| c.as_dvec3());
+    if let Target::Cells(_, _, Some(last)) = &target {
+        if !last.reached(f.apex, apex_distance, plane, &p, scale) {
+            return;
+        }
+    }
     let mut wholly_valid = true;
     if let Some(near) = &f.near {
         let d = p.map(|q| near.distance(q));
@@ -239,8 +276,8 @@ pub(super) fn classify(
     let edges = &edges[..count];
     let step = 1.0 / n as f64;
     let plane_offset = -apex_distance;
-    let (cover, contacts, last_order) = match target {
-        Target::Cells(cover, contacts, last_order) => (cover, contacts, last_order),
+    let (cover, contacts) = match target {
+        Target::Cells(cover, contacts, _) => (cover, contacts),
         Target::Samples(samples) => {
             let footprint = Footprint {
                 edges,
@@ -257,11 +294,9 @@ pub(super) fn classify(
     let footprint = contacts.footprints.len() as u32;
     let (gx, gy) = contacts.growth(depth);
     let (gx, gy) = (gx + FOOTPRINT_SLACK, gy + FOOTPRINT_SLACK);
-    let bounds = [lo.x - gx, lo.y - gy, hi.x + gx, hi.y + gy];
-    if last_order.is_some_and(|last| !last.shown(f, plane, bounds)) {
-        return;
-    }
-    contacts.footprints.push(bounds);
+    contacts
+        .footprints
+        .push([lo.x - gx, lo.y - gy, hi.x + gx, hi.y + gy]);
     for i in i0..=i1 {
         for j in j0..=j1 {
             let c = [

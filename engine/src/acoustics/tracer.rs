@@ -427,7 +427,16 @@ fn expand(
     let last_order = input
         .last_order_listeners
         .filter(|_| p.order + 1 == options.max_order);
-    touch_cells(input, f, last_group, n, options.cells, last_order, scratch, stats);
+    touch_cells(
+        input,
+        f,
+        last_group,
+        n,
+        options.cells,
+        last_order,
+        scratch,
+        stats,
+    );
     scratch.cell_sets.sort_dedup(&mut scratch.touched, n * n);
     let touched = std::mem::take(&mut scratch.touched);
     for cells in touched.chunk_by(|a, b| a.0 == b.0) {
