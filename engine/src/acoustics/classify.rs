@@ -145,12 +145,16 @@ impl LastOrder<'_> {
         p: &[DVec3; 3],
         scale: f64,
     ) -> bool {
+        let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+        let slack = 1e-6 * (hi - lo).element_sum() + 1e-9 * scale;
+        let (lo, hi) = (lo - DVec3::splat(slack), hi + DVec3::splat(slack));
         let normal = (p[1] - p[0]).cross(p[2] - p[0]);
-        let size = (p[1] - p[0]).abs().max_element()
-            + (p[2] - p[1]).abs().max_element()
-            + (p[0] - p[2]).abs().max_element();
-        let slack = 1e-6 * size + 1e-9 * scale;
         let inside = |x: DVec3| {
+            // Within the triangle's box first, which most crossings miss;
+            // NaN passes it.
+            if x.cmplt(lo).any() || x.cmpgt(hi).any() {
+                return false;
+            }
             (0..3).all(|k| {
                 let (a, b) = (p[k], p[(k + 1) % 3]);
                 let edge = b - a;
