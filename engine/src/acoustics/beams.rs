@@ -180,10 +180,13 @@ mod tests {
             let (traced, stats, _) = trace_keeping(&input, &listeners, &options, &none, 0).unwrap();
             let beams = trace_beams(&input, &options, &none).unwrap();
             assert_eq!(beams.proposals(&listeners), traced);
-            // A one-off trace proposes some of those.
+            // A one-off conservative trace proposes some of those (sampled
+            // cells hand its last order exactly, which proposes others).
             let (one_off, _) = trace(&input, &listeners, &options, &none).unwrap();
-            for (some, all) in one_off.iter().zip(&traced) {
-                assert!(some.iter().all(|p| all.contains(p)));
+            if cells == CellAssignment::Conservative {
+                for (some, all) in one_off.iter().zip(&traced) {
+                    assert!(some.iter().all(|p| all.contains(p)));
+                }
             }
             assert_eq!(
                 beams.stats(),

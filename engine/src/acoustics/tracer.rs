@@ -456,6 +456,14 @@ fn expand(
 /// 1.08x at order 3 in hall-200k, for the same paths.)
 const SAMPLE_CLASSIFY_BUDGET: u64 = 48;
 
+/// Frusta of a one-off trace's last expansion in sampled cells hand their
+/// cells exactly, as conservative cells do, while they hold at most this
+/// many triangles: only the triangles that a segment to a listener's image
+/// crosses are classified ([`LastOrder`]), so a triangle costs a few
+/// dozen multiply-adds, against 145 sample rays (N = 8) of a few hundred
+/// nanoseconds each. Past it (counted first), the frustum casts its rays.
+const LAST_ORDER_BUDGET: u64 = 512;
+
 /// Pushes to `scratch.touched` a `(group, cell)` pair for every plane group
 /// a cell of `f` is handed to. Conservative: every triangle touching the
 /// cell that no covering triangle hides. Sampled: the groups the cell's
@@ -463,8 +471,9 @@ const SAMPLE_CLASSIFY_BUDGET: u64 = 48;
 /// cull reaches while they are few, else by casting the rays.
 ///
 /// Given `last_order` listeners (the children are of the last order and
-/// only propose to them), conservative cells hand out only triangles
-/// through which one of them can be reached.
+/// only propose to them), cells are handed only triangles through which
+/// one of them can be reached, conservatively, also in sampled cells while
+/// the frustum holds few triangles ([`LAST_ORDER_BUDGET`]).
 #[allow(clippy::too_many_arguments)]
 fn touch_cells(
     input: &TraceInput,
@@ -476,11 +485,20 @@ fn touch_cells(
     scratch: &mut Scratch,
     stats: &mut TraceStats,
 ) {
+    let exact = |budget, scratch: &mut Scratch, stats: &mut TraceStats| {
+        conservative_cells(input, f, skip, n, last_order, budget, scratch, stats)
+    };
     match cells {
         CellAssignment::Sampled => {
+            if last_order.is_some()
+                && culled_at_most(input, f, LAST_ORDER_BUDGET)
+                && exact(u64::MAX, scratch, stats)
+            {
+                return;
+            }
             scratch.samples.reset((n + 1) * (n + 1) + n * n);
-            let budget = Some(SAMPLE_CLASSIFY_BUDGET);
-            if !classify_culled(input, f, skip, n, budget, None, scratch, stats) {
+            let budget = SAMPLE_CLASSIFY_BUDGET;
+            if !classify_culled(input, f, skip, n, Record::Samples, budget, scratch, stats) {
                 let hit = &mut scratch.samples.group;
                 sample_rays::cast(input.bvh, input.surfaces, f, skip, n, hit);
                 stats.sample_rays += hit.len() as u64;
@@ -488,47 +506,101 @@ fn touch_cells(
             sampled_cells(&scratch.samples.group, n, &mut scratch.touched);
         }
         CellAssignment::Conservative => {
-            scratch.cover.reset(n * n);
-            scratch.contacts.reset(f, input.apex_reach);
-            classify_culled(input, f, skip, n, None, last_order, scratch, stats);
-            // A contact counts unless a covering triangle lies wholly in
-            // front of it over the whole cell.
-            let cover = &scratch.cover.depth;
-            let Contacts {
-                touches,
-                footprints,
-                ..
-            } = &scratch.contacts;
-            // A triangle's contacts are side by side: its footprint is
-            // taken once.
-            let mut taken = u32::MAX;
-            for &(cell, group, depth, footprint) in touches {
-                if depth <= cover[cell as usize] * (1.0 + 1e-9) {
-                    scratch.touched.push((group, cell));
-                    if footprint != taken {
-                        scratch.windows.widen(group, footprints[footprint as usize]);
-                        taken = footprint;
-                    }
-                }
-            }
+            exact(u64::MAX, scratch, stats);
         }
     }
 }
 
+/// Conservative cells: pushes to `scratch.touched` every `(group, cell)`
+/// of a triangle touching the cell that no covering triangle hides, and
+/// widens the group's window to the triangle's footprint. Gives up,
+/// pushing nothing and returning false, past `budget` triangles.
+#[allow(clippy::too_many_arguments)]
+fn conservative_cells(
+    input: &TraceInput,
+    f: &Frustum,
+    skip: Option<u32>,
+    n: usize,
+    last_order: Option<&[DVec3]>,
+    budget: u64,
+    scratch: &mut Scratch,
+    stats: &mut TraceStats,
+) -> bool {
+    scratch.cover.reset(n * n);
+    scratch.contacts.reset(f, input.apex_reach);
+    if !classify_culled(
+        input,
+        f,
+        skip,
+        n,
+        Record::Cells(last_order),
+        budget,
+        scratch,
+        stats,
+    ) {
+        return false;
+    }
+    // A contact counts unless a covering triangle lies wholly in front of
+    // it over the whole cell.
+    let cover = &scratch.cover.depth;
+    let Contacts {
+        touches,
+        footprints,
+        ..
+    } = &scratch.contacts;
+    // A triangle's contacts are side by side: its footprint is taken once.
+    let mut taken = u32::MAX;
+    for &(cell, group, depth, footprint) in touches {
+        if depth <= cover[cell as usize] * (1.0 + 1e-9) {
+            scratch.touched.push((group, cell));
+            if footprint != taken {
+                scratch.windows.widen(group, footprints[footprint as usize]);
+                taken = footprint;
+            }
+        }
+    }
+    true
+}
+
+/// Whether the cull of `f` reaches at most `most` triangles: counted leaf
+/// by leaf, without a look at any, which costs a fraction of classifying
+/// them, so a frustum that holds more wastes little on finding out.
+fn culled_at_most(input: &TraceInput, f: &Frustum, most: u64) -> bool {
+    let cull = box_cull(f, (input.surfaces.scale() * 1e-6) as f32);
+    let mut count = 0u64;
+    for_each_leaf(input.bvh, input.surfaces, &cull, |_, n| {
+        count += n as u64;
+        if count > most {
+            f64::NEG_INFINITY
+        } else {
+            f64::INFINITY
+        }
+    });
+    count <= most
+}
+
+/// What [`classify_culled`] classifies triangles into.
+#[derive(Clone, Copy)]
+enum Record<'a> {
+    /// The sample hits.
+    Samples,
+    /// The cover depths and contacts, of only the triangles through which
+    /// one of the listeners can be reached, if given.
+    Cells(Option<&'a [DVec3]>),
+}
+
 /// Classifies the triangles the cull of `f` reaches, nearest leaves first,
-/// into the cover depths and contacts (conservative cells) or, given a
-/// `sample_budget`, into the sample hits, until nothing nearer can remain.
-/// Sampling gives up, returning false, once more than `sample_budget`
-/// triangles were classified. Cells are handed only triangles that show
-/// one of the `last_order` listeners, if given.
+/// `into` the sample hits or the cells, until nothing nearer can remain.
+/// Gives up, returning false, once more than `budget` triangles were
+/// classified.
 #[allow(clippy::too_many_arguments)]
 fn classify_culled(
     input: &TraceInput,
     f: &Frustum,
     skip: Option<u32>,
     n: usize,
-    sample_budget: Option<u64>,
-    last_order: Option<&[DVec3]>,
+    into: Record,
+    budget: u64,
     scratch: &mut Scratch,
     stats: &mut TraceStats,
 ) -> bool {
@@ -540,8 +612,6 @@ fn classify_culled(
         samples,
         ..
     } = scratch;
-    let sampled = sample_budget.is_some();
-    let budget = sample_budget.unwrap_or(u64::MAX);
     let mut tested = 0u64;
     for_each_leaf(input.bvh, input.surfaces, &cull, |first, count| {
         for i in first..first + count {
@@ -550,17 +620,18 @@ fn classify_culled(
                 continue;
             }
             tested += 1;
-            let target = if sampled {
-                Target::Samples(samples)
-            } else {
-                let last_order = last_order.map(|listeners| LastOrder {
-                    listeners,
-                    transmits: input
-                        .materials
-                        .get(input.surfaces.group(group).material as usize)
-                        .is_some_and(Material::transmits),
-                });
-                Target::Cells(cover, contacts, last_order)
+            let target = match into {
+                Record::Samples => Target::Samples(samples),
+                Record::Cells(last_order) => {
+                    let last_order = last_order.map(|listeners| LastOrder {
+                        listeners,
+                        transmits: input
+                            .materials
+                            .get(input.surfaces.group(group).material as usize)
+                            .is_some_and(Material::transmits),
+                    });
+                    Target::Cells(cover, contacts, last_order)
+                }
             };
             classify(f, input.surfaces, corners, group, n, scale, target);
         }
@@ -569,10 +640,9 @@ fn classify_culled(
         }
         // Nothing beyond the farthest covered cell (or sample hit) can be
         // handed a cell.
-        if sampled {
-            samples.farthest()
-        } else {
-            cover.farthest()
+        match into {
+            Record::Samples => samples.farthest(),
+            Record::Cells(_) => cover.farthest(),
         }
     });
     stats.triangle_tests += tested;
