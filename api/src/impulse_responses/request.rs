@@ -163,9 +163,12 @@ impl ImpulseResponseRequest {
             (
                 "sampling",
                 ObjectBuilder::new()
-                    .schema_type(Type::Integer)
+                    .schema_type(utoipa::openapi::schema::SchemaType::from_iter([
+                        Type::Integer,
+                        Type::Null,
+                    ]))
                     .description(Some(format!(
-                        "Sub-frusta per frustum side, N (the server may cap it lower); default {} with conservative cells, {} with sampled cells",
+                        "Sub-frusta per frustum side, N (the server may cap it lower); null or omitted: {} with conservative cells, {} with sampled cells",
                         CellAssignment::Conservative.default_sampling(),
                         CellAssignment::Sampled.default_sampling()
                     )))

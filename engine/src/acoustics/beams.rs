@@ -180,8 +180,10 @@ mod tests {
             let (traced, stats, _) = trace_keeping(&input, &listeners, &options, &none, 0).unwrap();
             let beams = trace_beams(&input, &options, &none).unwrap();
             assert_eq!(beams.proposals(&listeners), traced);
-            // A one-off conservative trace proposes some of those (sampled
-            // cells hand its last order exactly, which proposes others).
+            // A one-off conservative trace proposes some of those in this
+            // convex box (elsewhere the cover it drops may let it propose
+            // others; sampled cells hand its last order exactly, which
+            // proposes others here too).
             let (one_off, _) = trace(&input, &listeners, &options, &none).unwrap();
             if cells == CellAssignment::Conservative {
                 for (some, all) in one_off.iter().zip(&traced) {

@@ -6,8 +6,6 @@
 //! rays needed), "all corners outside one edge" is a miss, and only cells
 //! inside the triangle's window bounds are looked at.
 
-use std::cmp::Ordering;
-
 use glam::{DVec2, DVec3};
 
 use super::frustum::Frustum;
@@ -116,13 +114,14 @@ impl Contacts {
 /// The listeners that a frustum's children of the last order can propose
 /// (they are visited, never expanded), for a trace that keeps no frusta.
 ///
-/// A path that validates reflects off (or passes) one triangle, at the
-/// point where the segment from the parent's apex to the listener's image
-/// in the triangle's plane (or to the listener) crosses it. Triangles no
-/// such segment crosses hand out no cells, and cover none: the children
-/// left are those that can propose a valid path, occlusion only weakens,
-/// and no path is lost. In a detailed hall nearly all frusta are of the
-/// last order, and almost none of them holds a listener.
+/// A path that validates reflects off (or passes) one triangle, where the
+/// line from the parent's apex to the listener's image in the triangle's
+/// group plane (or to the listener) passes through it, to within the
+/// rounding validation accepts. Triangles no such line passes through
+/// (with [`LAST_ORDER_SLACK`] to spare) hand out no cells, and cover none:
+/// the children left are those that can propose a valid path, occlusion
+/// only weakens, and no path is lost. In a detailed hall nearly all frusta
+/// are of the last order, and almost none of them holds a listener.
 #[derive(Clone, Copy)]
 pub(super) struct LastOrder<'a> {
     pub listeners: &'a [DVec3],
@@ -130,13 +129,20 @@ pub(super) struct LastOrder<'a> {
     pub transmits: bool,
 }
 
+/// How far, as a fraction of the coordinates' magnitude, the line to a
+/// listener's image may pass a triangle and still count as through it:
+/// validation accepts a leg's end within 64 f32 ulps of its coordinates
+/// (7.6e-6 of them, `path::LEG_END_ULPS`).
+const LAST_ORDER_SLACK: f64 = 1e-5;
+
 impl LastOrder<'_> {
-    /// Whether a listener can be reached through the triangle `p` of
-    /// `plane`, `apex_distance` from the apex: by reflection, where the
-    /// segment from the apex to the listener's image crosses the plane
-    /// inside the triangle, or passing through, where the segment to the
-    /// listener does. Inside within a millionth of the triangle's size and
-    /// a billionth of the scene's, far above the rounding.
+    /// Whether a listener can be reached through the triangle `p` of a
+    /// group of `plane`, `apex_distance` from the apex: by reflection,
+    /// where the line from the apex to the listener's image in the plane
+    /// passes through the triangle, or passing through, where the line to
+    /// the listener does. The triangle is taken as it is, not as its
+    /// group's plane, which its own may miss by the grouping's tolerance
+    /// (far more than the slack, along a grazing line).
     fn reached(
         &self,
         apex: DVec3,
@@ -145,39 +151,38 @@ impl LastOrder<'_> {
         p: &[DVec3; 3],
         scale: f64,
     ) -> bool {
-        let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
-        let slack = 1e-6 * (hi - lo).element_sum() + 1e-9 * scale;
-        let (lo, hi) = (lo - DVec3::splat(slack), hi + DVec3::splat(slack));
-        let normal = (p[1] - p[0]).cross(p[2] - p[0]);
-        let inside = |x: DVec3| {
-            // Within the triangle's box first, which most crossings miss;
-            // NaN passes it.
-            if x.cmplt(lo).any() || x.cmpgt(hi).any() {
-                return false;
-            }
-            (0..3).all(|k| {
-                let (a, b) = (p[k], p[(k + 1) % 3]);
-                let edge = b - a;
-                // The distance from the edge's line, times |edge| |normal|:
-                // both bounded above by their L1 lengths, so the slack only
-                // grows.
-                let bound = slack * edge.abs().element_sum() * normal.abs().element_sum();
-                // Kept unless surely outside, so NaN is kept.
-                edge.cross(x - a).dot(normal).partial_cmp(&-bound) != Some(Ordering::Less)
-            })
-        };
-        // Where the segment from the apex to `to`, `to_distance` from the
-        // plane on its other side, crosses it.
-        let crosses = |to: DVec3, to_distance: f64| {
+        // The planes through the apex and each edge: a line's direction
+        // `d` against edge k's gives `|e_k| h / t` times the distance from
+        // the edge's line at which the line crosses the triangle (h the
+        // apex's distance from the plane, t the fraction of the segment
+        // where it crosses), positive on one side of every edge inside.
+        let q = p.map(|c| c - apex);
+        let sides = [q[0].cross(q[1]), q[1].cross(q[2]), q[2].cross(q[0])];
+        let edges = [p[1] - p[0], p[2] - p[1], p[0] - p[2]].map(|e| e.abs().element_sum());
+        let magnitude = p
+            .iter()
+            .map(|c| c.abs().max_element())
+            .fold(scale, f64::max);
+        let slack = LAST_ORDER_SLACK * magnitude * apex_distance.abs();
+        // The line from the apex to `to`, `to_distance` from the plane on
+        // its other side.
+        let through = |to: DVec3, to_distance: f64| {
             // As `!(>= 0)`, so that NaN is kept.
             if apex_distance * to_distance >= 0.0 {
                 return false;
             }
-            inside(apex + (to - apex) * (apex_distance / (apex_distance - to_distance)))
+            let t = apex_distance / (apex_distance - to_distance);
+            let d = to - apex;
+            let s = sides.map(|n| n.dot(d));
+            let b = edges.map(|e| slack * e / t);
+            // Inside with either orientation; NaN is kept.
+            let outside_one_way = (s[0] < -b[0]) | (s[1] < -b[1]) | (s[2] < -b[2]);
+            let outside_other_way = (s[0] > b[0]) | (s[1] > b[1]) | (s[2] > b[2]);
+            !outside_one_way || !outside_other_way
         };
         self.listeners.iter().any(|&l| {
             let d = plane.distance(l);
-            crosses(plane.mirror(l), -d) || (self.transmits && crosses(l, d))
+            through(plane.mirror(l), -d) || (self.transmits && through(l, d))
         })
     }
 }

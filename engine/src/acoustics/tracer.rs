@@ -36,8 +36,8 @@ use crate::Result;
 pub struct TraceOptions {
     /// Highest number of surface events on a path.
     pub max_order: u32,
-    /// Cells per frustum side (`N`); 1..=64. Default: the cells'
-    /// [`CellAssignment::default_sampling`].
+    /// Cells per frustum side (`N`); 1..=64. Default: 2, the default
+    /// cells' [`CellAssignment::default_sampling`] (sampled cells want 8).
     pub sampling: u32,
     /// Frusta per cube-face side for the frusta leaving the source.
     pub primary_split: u32,
@@ -68,12 +68,14 @@ pub enum CellAssignment {
 
 impl CellAssignment {
     /// The sampling `N` a trace takes unless asked for another. Conservative
-    /// cells are complete at any `N`, and coarse cells are fastest: a
-    /// finer grid hides little more behind small triangles and splits
-    /// every frustum into more children (`frusta-bench propagation`:
-    /// hall-10k order 4 at N = 2 in 0.6 of the time at N = 8, the
-    /// shoebox and the L-room in half). Sampled cells find most paths only
-    /// with enough sample rays.
+    /// cells are complete at any `N`, and coarse cells cost least: a finer
+    /// grid hides little more behind small triangles and splits every
+    /// frustum into more children. Kept traces (streams) of hall-10k at
+    /// order 4 took 0.6 of the time at N = 2 as at N = 8, the shoebox and
+    /// the L-room half; one-off traces, whose last order is pruned to the
+    /// listeners, differ less (0.41 against 0.44 s in hall-10k, half in the
+    /// shoebox; `frusta-bench propagation`). Sampled cells find most paths
+    /// only with enough sample rays.
     pub fn default_sampling(self) -> u32 {
         match self {
             CellAssignment::Conservative => 2,
@@ -169,7 +171,7 @@ pub(crate) struct TraceInput<'a> {
     /// The listeners, when the trace only proposes to them and keeps no
     /// frusta ([`trace`]): a frustum's children of the last order are then
     /// handed only triangles through which one of them can be reached
-    /// (see [`classify::LastOrder`]). `None` hands them every triangle, for
+    /// (see [`LastOrder`]). `None` hands them every triangle, for
     /// frusta kept to test other listeners against later.
     pub last_order_listeners: Option<&'a [DVec3]>,
 }
@@ -485,15 +487,13 @@ fn touch_cells(
     scratch: &mut Scratch,
     stats: &mut TraceStats,
 ) {
-    let exact = |budget, scratch: &mut Scratch, stats: &mut TraceStats| {
-        conservative_cells(input, f, skip, n, last_order, budget, scratch, stats)
+    let exact = |scratch: &mut Scratch, stats: &mut TraceStats| {
+        conservative_cells(input, f, skip, n, last_order, scratch, stats)
     };
     match cells {
         CellAssignment::Sampled => {
-            if last_order.is_some()
-                && culled_at_most(input, f, LAST_ORDER_BUDGET)
-                && exact(u64::MAX, scratch, stats)
-            {
+            if last_order.is_some() && culled_at_most(input, f, LAST_ORDER_BUDGET) {
+                exact(scratch, stats);
                 return;
             }
             scratch.samples.reset((n + 1) * (n + 1) + n * n);
@@ -506,40 +506,27 @@ fn touch_cells(
             sampled_cells(&scratch.samples.group, n, &mut scratch.touched);
         }
         CellAssignment::Conservative => {
-            exact(u64::MAX, scratch, stats);
+            exact(scratch, stats);
         }
     }
 }
 
 /// Conservative cells: pushes to `scratch.touched` every `(group, cell)`
 /// of a triangle touching the cell that no covering triangle hides, and
-/// widens the group's window to the triangle's footprint. Gives up,
-/// pushing nothing and returning false, past `budget` triangles.
-#[allow(clippy::too_many_arguments)]
+/// widens the group's window to the triangle's footprint.
 fn conservative_cells(
     input: &TraceInput,
     f: &Frustum,
     skip: Option<u32>,
     n: usize,
     last_order: Option<&[DVec3]>,
-    budget: u64,
     scratch: &mut Scratch,
     stats: &mut TraceStats,
-) -> bool {
+) {
     scratch.cover.reset(n * n);
     scratch.contacts.reset(f, input.apex_reach);
-    if !classify_culled(
-        input,
-        f,
-        skip,
-        n,
-        Record::Cells(last_order),
-        budget,
-        scratch,
-        stats,
-    ) {
-        return false;
-    }
+    let cells = Record::Cells(last_order);
+    classify_culled(input, f, skip, n, cells, u64::MAX, scratch, stats);
     // A contact counts unless a covering triangle lies wholly in front of
     // it over the whole cell.
     let cover = &scratch.cover.depth;
@@ -559,7 +546,6 @@ fn conservative_cells(
             }
         }
     }
-    true
 }
 
 /// Whether the cull of `f` reaches at most `most` triangles: counted leaf
