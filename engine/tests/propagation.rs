@@ -265,6 +265,57 @@ mod cached {
         }
     }
 
+    /// A floor of 128 triangles, each corner lifted off the plane by up to
+    /// a micrometre (within the grouping's tolerance: one plane group),
+    /// under a source and a listener 3 cm above it and 8 m apart. Paths
+    /// graze the floor, where the line to the listener's image in the
+    /// group's plane passes a triangle's own plane up to 0.3 mm from where
+    /// it meets the group's. A one-off trace, whose last order is handed
+    /// only the triangles that line passes through, finds every path that
+    /// a kept trace (every triangle) finds.
+    #[test]
+    fn one_off_traces_find_the_grazing_paths_over_a_floor_off_its_plane() {
+        let mut room =
+            frusta_engine::scene::generate::BoxRoom::new(Vec3::ZERO, Vec3::new(10.0, 6.0, 3.0));
+        room.subdivisions = 8;
+        let mut mesh = room.generate().unwrap();
+        for (i, p) in mesh.positions.iter_mut().enumerate() {
+            if p.z == 0.0 {
+                p.z = 1e-6 * (((i * 7919) % 21) as f32 - 10.0) / 10.0;
+            }
+        }
+        let scene = frusta_engine::scene::Scene::single_object(
+            "room",
+            mesh,
+            frusta_engine::scene::Material::uniform("walls", 0.2).unwrap(),
+        )
+        .unwrap();
+        let scene = AcousticScene::new(&scene);
+        let (source, listener) = ([Vec3::new(1.0, 3.0, 0.03)], [Vec3::new(9.0, 3.2, 0.03)]);
+        let options = SimulationOptions {
+            cells: CellAssignment::Conservative,
+            ..options(3)
+        };
+        let fresh = simulate(&scene, &source, &listener, &options).unwrap();
+        let kept = simulate_cached(
+            &scene,
+            &source,
+            &listener,
+            &options,
+            &mut BeamCache::default(),
+            None,
+            None,
+        )
+        .unwrap();
+        assert_same(&kept, &fresh);
+        let on_floor = fresh[0]
+            .paths
+            .iter()
+            .filter(|p| p.surfaces.iter().any(|s| s.point[2].abs() < 1e-3))
+            .count();
+        assert!(on_floor >= 10, "{on_floor} paths meet the floor");
+    }
+
     #[test]
     fn a_trace_too_large_to_keep_is_not_widened_again() {
         // Widened for a moving source, a trace costs more frusta than an
