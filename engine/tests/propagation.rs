@@ -200,6 +200,22 @@ mod cached {
             let listener = [Vec3::new(x, 2.0, 1.5)];
             assert!(!step(&scene, &source, &listener, &options, &mut capped));
         }
+        // Past the cap unwidened (these options keep frusta for the very
+        // position only), calls trace as one-off traces do, their last
+        // order pruned to the listener.
+        let listener = [Vec3::new(7.5, 2.0, 1.5)];
+        let cached = simulate_cached(
+            &scene,
+            &source,
+            &listener,
+            &options,
+            &mut capped,
+            None,
+            None,
+        )
+        .unwrap();
+        let fresh = simulate(&scene, &source, &listener, &options).unwrap();
+        assert_eq!(cached[0].stats.frusta, fresh[0].stats.frusta);
         let mut roomy = BeamCache::default();
         step(
             &scene,

@@ -7,7 +7,7 @@ use glam::DVec3;
 
 use super::beams::Beams;
 use super::tail::{record_tail, trace_tail, TailInput, TailOptions, TailRecord, TracedTail};
-use super::tracer::{trace_keeping, TraceInput, TraceOptions};
+use super::tracer::{trace, trace_keeping, TraceInput, TraceOptions};
 use super::{AcousticScene, FoundPaths};
 use crate::deadline::Deadline;
 use crate::Result;
@@ -15,7 +15,9 @@ use crate::Result;
 /// Beams per source, valid for one scene state, trace options and
 /// material table. Holds the beams traced near the sources of the latest
 /// call, each trace of at most [`Self::max_beams`] beams (about 160 bytes
-/// each): a trace with more keeps none and is simply done again next time.
+/// each): a trace with more keeps none and is done again next time,
+/// unwidened, and after an unwidened one with more, as a one-off trace
+/// (see `Keep`).
 #[derive(Debug)]
 pub struct BeamCache {
     key: Option<Key>,
@@ -23,11 +25,9 @@ pub struct BeamCache {
     /// reused them from elsewhere.
     entries: Vec<Entry>,
     max_beams: usize,
-    /// A trace widened for a moving source had more than `max_beams`
-    /// frusta and kept none: until the scene or the options change, traces
-    /// are not widened (they would serve no moving source), so each costs
-    /// a one-off trace and may fit for moving listeners.
-    too_large: bool,
+    /// How much of a trace is kept, lowered by traces of more than
+    /// `max_beams` frusta until the scene or the options change.
+    keep: Keep,
     /// Tail walks: what a walk depends on besides the key and the source,
     /// the walk (whose chunks say where they were walked from), and the
     /// call that last took it. Sources whose walk would take the kept ones
@@ -38,6 +38,20 @@ pub struct BeamCache {
     /// The latest call: its number and its sources.
     call: u64,
     sources: Vec<[u64; 3]>,
+}
+
+/// What the cache traces to keep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Keep {
+    /// Frusta widened for a source moving within the reach.
+    Widened,
+    /// A widened trace had more than `max_beams` frusta and kept none:
+    /// unwidened frusta (they would serve no moving source), which cost
+    /// what a one-off trace's do and may fit, for moving listeners.
+    Unwidened,
+    /// An unwidened trace had too many frusta as well: nothing. Traces are
+    /// one-off traces, their last order pruned to the call's listeners.
+    Nothing,
 }
 
 #[derive(Debug)]
@@ -98,7 +112,7 @@ impl BeamCache {
             key: None,
             entries: Vec::new(),
             max_beams,
-            too_large: false,
+            keep: Keep::Widened,
             tails: Vec::new(),
             max_tail_events: DEFAULT_MAX_TAIL_EVENTS,
             call: 0,
@@ -127,7 +141,7 @@ impl BeamCache {
             .is_none_or(|k| k.state != scene.state() || k.options != *options);
         if stale {
             self.entries.clear();
-            self.too_large = false;
+            self.keep = Keep::Widened;
             self.tails.clear();
             self.key = Some(Key {
                 state: scene.state(),
@@ -330,15 +344,30 @@ impl BeamCache {
                 stats.proposals = proposals.iter().map(|p| p.len() as u64).sum();
                 (proposals, stats, Some(moved.length()))
             }
+            None if self.keep == Keep::Nothing => {
+                let input = scene.trace_input(source);
+                let (proposals, stats) = trace(&input, listeners, options, deadline)?;
+                (proposals, stats, None)
+            }
             None => {
-                let reach = if self.too_large { 0.0 } else { reach };
+                let reach = if self.keep == Keep::Widened {
+                    reach
+                } else {
+                    0.0
+                };
                 let input = TraceInput {
                     apex_reach: reach,
                     ..scene.trace_input(source)
                 };
                 let (proposals, stats, beams) =
                     trace_keeping(&input, listeners, options, deadline, self.max_beams)?;
-                self.too_large |= reach > 0.0 && beams.is_none();
+                if beams.is_none() {
+                    self.keep = if reach > 0.0 {
+                        Keep::Unwidened
+                    } else {
+                        Keep::Nothing
+                    };
+                }
                 if let Some(beams) = beams {
                     self.entries.push(Entry {
                         at: source,
