@@ -698,6 +698,23 @@ mod tests {
     }
 
     #[test]
+    fn sampling_left_out_or_null_is_the_cells_default() {
+        let cells = |json: &str| -> TraceOptions {
+            let options: SimulationOptions = serde_json::from_str(json).unwrap();
+            options.trace_options().unwrap()
+        };
+        assert_eq!(cells("{}").sampling, 2);
+        assert_eq!(cells(r#"{"sampling": null}"#).sampling, 2);
+        assert_eq!(cells(r#"{"cells": "sampled"}"#).sampling, 8);
+        assert_eq!(
+            cells(r#"{"cells": "sampled", "sampling": null}"#).sampling,
+            8
+        );
+        assert_eq!(cells(r#"{"cells": "sampled", "sampling": 3}"#).sampling, 3);
+        assert_eq!(cells(r#"{"sampling": 5}"#).sampling, 5);
+    }
+
+    #[test]
     fn every_out_of_range_option_is_an_error_naming_it() {
         let bad = [
             (
